@@ -1,0 +1,1 @@
+"""px100_control.bag."""

@@ -1,0 +1,67 @@
+"""
+Euler angles and quaternions.
+
+Euler angles follow the ``tf_transformations`` static 'sxyz' convention that Interbotix uses:
+R = Rz(yaw) Ry(pitch) Rx(roll). Quaternions are ROS-ordered (x, y, z, w).
+"""
+import numpy as np
+
+from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
+
+
+def euler_sxyz_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Return the (3, 3) rotation Rz(yaw) Ry(pitch) Rx(roll); angles [rad]."""
+    return rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)
+
+
+def matrix_to_euler_sxyz(R: np.ndarray):
+    """
+    Return (roll, pitch, yaw) [rad] of R in the static 'sxyz' convention.
+
+    At pitch = +-pi/2 (gimbal lock) roll is set to 0 and yaw absorbs the rest.
+    """
+    cy = np.hypot(R[0, 0], R[1, 0])
+    if cy > 1e-9:
+        roll = np.arctan2(R[2, 1], R[2, 2])
+        pitch = np.arctan2(-R[2, 0], cy)
+        yaw = np.arctan2(R[1, 0], R[0, 0])
+    else:
+        roll = 0.0
+        pitch = np.arctan2(-R[2, 0], cy)
+        yaw = np.arctan2(-R[0, 1], R[1, 1])
+    return float(roll), float(pitch), float(yaw)
+
+
+def quaternion_to_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
+    """Return the (3, 3) rotation of a unit quaternion (x, y, z, w)."""
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def matrix_to_quaternion(R: np.ndarray):
+    """Return the unit quaternion (x, y, z, w) of a (3, 3) rotation, with w >= 0."""
+    t = np.trace(R)
+    if t > 0:
+        s = 2.0 * np.sqrt(t + 1.0)
+        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, \
+            (R[1, 0] - R[0, 1]) / s
+    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
+        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, \
+            (R[0, 2] + R[2, 0]) / s
+    elif R[1, 1] > R[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
+        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, \
+            (R[1, 2] + R[2, 1]) / s
+    else:
+        s = 2.0 * np.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
+        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, \
+            (R[1, 2] + R[2, 1]) / s, 0.25 * s
+    q = np.array([x, y, z, w])
+    q /= np.linalg.norm(q)
+    if q[3] < 0:
+        q = -q
+    return tuple(float(v) for v in q)

@@ -1,0 +1,91 @@
+"""
+What every px100_control node shares: the common parameters, topic naming and QoS.
+
+Every node declares ``robot_model`` (default ``px100``: which robot description to load) and
+``robot_name`` (default ``px100``: the namespace of its topics, as in the Interbotix stack).
+Topic names are ``/<robot_name>/<name>``; an empty robot_name makes them relative, so
+``--ros-args -r __ns:=/x`` places them.
+"""
+import argparse
+from typing import List, Optional, Sequence
+
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from px100_control.models.registry import load_robot
+from px100_control.models.robot_model import RobotModel
+
+#: latched topics (robot_description, trajectory/status)
+LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                         reliability=ReliabilityPolicy.RELIABLE)
+
+
+def declare_robot_parameters(node: Node) -> RobotModel:
+    """Declare robot_model/robot_name on the node and return the loaded RobotModel."""
+    model_name = node.declare_parameter('robot_model', 'px100').value
+    node.declare_parameter('robot_name', 'px100')
+    return load_robot(model_name)
+
+
+def robot_name(node: Node) -> str:
+    """Return the node's robot_name parameter ('' for none)."""
+    return str(node.get_parameter('robot_name').value).strip('/')
+
+
+def robot_topic(node: Node, name: str) -> str:
+    """Return ``/<robot_name>/<name>``, or ``name`` relative when robot_name is empty."""
+    ns = robot_name(node)
+    return f'/{ns}/{name}' if ns else name
+
+
+def frame_id(node: Node, frame: str) -> str:
+    """Return the tf frame name ``<robot_name>/<frame>`` (``frame`` when robot_name is '')."""
+    ns = robot_name(node)
+    return f'{ns}/{frame}' if ns else frame
+
+
+def parse_cli(description: str, args: Optional[Sequence[str]] = None,
+              add_arguments=None) -> (argparse.Namespace, List[str]):
+    """
+    Parse a node's command line: ``--help`` and its own options, ROS args passed through.
+
+    :return: (parsed options, the full argv to hand to ``rclpy.init(args=...)``)
+    """
+    import sys
+
+    from rclpy.utilities import remove_ros_args
+    argv = list(sys.argv if args is None else args)
+    parser = argparse.ArgumentParser(
+        prog=argv[0].rsplit('/', 1)[-1] if argv else None, description=description,
+        epilog='ROS arguments: --ros-args -p robot_model:=px100 -p robot_name:=px100 '
+               '--params-file config/px100.yaml -r from:=to')
+    if add_arguments is not None:
+        add_arguments(parser)
+    options = parser.parse_args(remove_ros_args(argv)[1:])
+    return options, argv
+
+
+def spin_node(node_factory, args=None, description: str = '', add_arguments=None) -> int:
+    """
+    Run one node the Jazzy way: init, spin until SIGINT/shutdown, destroy, try_shutdown.
+
+    :param node_factory: callable(options) -> Node
+    """
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+
+    options, argv = parse_cli(description, args, add_arguments)
+    rclpy.init(args=argv)
+    node = None
+    try:
+        node = node_factory(options)
+        executor = MultiThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

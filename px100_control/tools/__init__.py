@@ -1,0 +1,1 @@
+"""Process and environment helpers shared by tests, benchmarks and scripts (no rclpy)."""

@@ -1,0 +1,48 @@
+"""ament_python package definition for px100_control."""
+from glob import glob
+import os
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'px100_control'
+
+# Executables resolved by `ros2 run px100_control <name>` (lib/px100_control/<name>).
+EXECUTABLES = {
+    'sim_driver': 'px100_control.ros.sim_driver_node:main',
+    'ik_service': 'px100_control.ros.ik_service_node:main',
+    'trajectory_server': 'px100_control.ros.trajectory_server_node:main',
+    'bringup': 'px100_control.ros.bringup:main',
+    'record': 'px100_control.ros.recorder_node:main',
+    'replay': 'px100_control.ros.replayer_node:main',
+    'inspect': 'px100_control.bag.inspect_cli:main',
+    'bag_reindex': 'px100_control.bag.reindex:main',
+}
+
+
+def _data(pattern):
+    return [f for f in glob(pattern) if os.path.isfile(f)]
+
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*', 'benchmarks']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+        ('share/' + PACKAGE + '/urdf', _data('urdf/*')),
+        ('share/' + PACKAGE + '/config', _data('config/*.yaml')),
+        ('share/' + PACKAGE + '/config/robots', _data('config/robots/*')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='px100_control developers',
+    maintainer_email='px100-control@example.org',
+    description='Simulated PincherX-100 with IK, trajectories, PID driver, '
+                'Interbotix-compatible client and MCAP bags.',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [f'{name} = {target}' for name, target in EXECUTABLES.items()],
+    },
+)

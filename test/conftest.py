@@ -1,0 +1,87 @@
+"""
+Shared test setup: a private DDS domain for this run, localhost-only discovery, and fixtures.
+
+The domain comes from ROS_DOMAIN_ID if the runner set one (scripts/test.sh picks a random one),
+otherwise one derived from the process id, so parallel runs do not see each other.
+"""
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.pop('ROS_LOCALHOST_ONLY', None)
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture
+def rclpy_context():
+    """Yield an initialised rclpy Context of its own; shut it down afterwards."""
+    rclpy = pytest.importorskip('rclpy')
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    ctx.try_shutdown()
+
+
+@pytest.fixture
+def spin_node(rclpy_context):
+    """
+    Return a factory ``spin_node(node_or_nodes)`` that spins nodes in a background executor.
+
+    Everything is destroyed and the executor stopped at teardown.
+    """
+    import threading
+
+    from rclpy.executors import MultiThreadedExecutor
+
+    executor = MultiThreadedExecutor(context=rclpy_context)
+    nodes = []
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    started = []
+
+    def _add(*new_nodes):
+        for n in new_nodes:
+            executor.add_node(n)
+            nodes.append(n)
+        if not started:
+            thread.start()
+            started.append(True)
+        return new_nodes[0] if len(new_nodes) == 1 else new_nodes
+
+    yield _add
+    executor.shutdown(timeout_sec=2.0)
+    for n in nodes:
+        n.destroy_node()
+    if started:
+        thread.join(timeout=5.0)
+
+
+@pytest.fixture
+def node_process():
+    """
+    Return a factory ``node_process(executable, *args)`` starting this package's executables.
+
+    Each process is stopped with SIGINT and waited for at teardown; a process that had to be
+    killed fails the test.
+    """
+    from px100_control.tools.processes import NodeProcess
+
+    procs = []
+
+    def _start(name, *args, env=None):
+        p = NodeProcess(name, args, env=env)
+        procs.append(p)
+        return p
+
+    yield _start
+    killed = []
+    for p in procs:
+        p.stop()
+        if p.killed:
+            killed.append(p.name)
+    assert not killed, f'processes ignored SIGINT and were killed: {killed}'

@@ -1,0 +1,50 @@
+"""The `ros2 run px100_control <name>` contract, resolved the way ros2cli does it."""
+import os
+
+import pytest
+import yaml
+
+from px100_control.tools.processes import NodeProcess, executable_path
+
+# Every executable of shared/reference/ros_interfaces.md.
+CONTRACT_EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'bringup', 'record',
+                        'replay', 'inspect']
+
+
+def test_package_is_in_the_ament_index():
+    """The package prefix resolves and holds package.xml, the URDF and the config."""
+    from ament_index_python.packages import get_package_prefix, get_package_share_directory
+    prefix = get_package_prefix('px100_control')
+    share = get_package_share_directory('px100_control')
+    assert share.startswith(prefix)
+    for rel in ('package.xml', 'urdf/px100.urdf', 'config/px100.yaml',
+                'config/robots/px100.yaml'):
+        assert os.path.isfile(os.path.join(share, rel)), rel
+
+
+@pytest.mark.parametrize('name', CONTRACT_EXECUTABLES)
+def test_executable_exists_where_ros2_run_looks(name):
+    """lib/px100_control/<name> is an executable file under the package prefix."""
+    path = executable_path(name)
+    assert os.access(path, os.X_OK)
+    assert os.path.basename(os.path.dirname(path)) == 'px100_control'
+
+
+@pytest.mark.parametrize('name', CONTRACT_EXECUTABLES)
+def test_executable_starts_and_answers_help(name):
+    """Each executable starts from the install prefix and prints its usage for --help."""
+    with NodeProcess(name, ['--help']) as proc:
+        proc.proc.wait(30)
+        out = proc.output()
+    assert proc.proc.returncode == 0, out
+    assert 'usage' in out.lower(), out
+
+
+def test_params_file_is_valid_ros_yaml():
+    """config/px100.yaml has the ros__parameters layout --params-file expects."""
+    from px100_control.paths import data_path
+    with open(data_path('config', 'px100.yaml')) as f:
+        params = yaml.safe_load(f)
+    assert params['/**']['ros__parameters']['robot_model'] == 'px100'
+    for node in ('sim_driver', 'ik_service', 'trajectory_server'):
+        assert 'ros__parameters' in params['/**/' + node], node
