@@ -11,6 +11,9 @@ if [ -z "${PYTHON:-}" ]; then
     if command -v "$cand" >/dev/null 2>&1; then PYTHON=$cand; break; fi
   done
 fi
+# Serialise concurrent setups of the same tree (parallel test runs share venv and install/).
+exec 9>"$ROOT/.setup.lock"
+flock 9
 STAMP="$VENV/.px100_requirements.sha"
 WANT=$(cat "$ROOT/requirements/runtime.txt" "$ROOT/requirements/constraints.txt" | sha256sum | cut -d' ' -f1)
 if [ ! -x "$VENV/bin/python" ]; then
