@@ -22,5 +22,5 @@ def share_dir() -> str:
 
 
 def data_path(*parts: str) -> str:
-    """Return the absolute path of a data file, e.g. data_path('urdf', 'px100.urdf')."""
+    """Return the absolute path of a data file under share_dir() (e.g. urdf/px100.urdf)."""
     return os.path.join(share_dir(), *parts)

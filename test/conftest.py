@@ -31,7 +31,7 @@ def rclpy_context():
 @pytest.fixture
 def spin_node(rclpy_context):
     """
-    Return a factory ``spin_node(node_or_nodes)`` that spins nodes in a background executor.
+    Spin nodes handed to the returned factory in a background executor.
 
     Everything is destroyed and the executor stopped at teardown.
     """

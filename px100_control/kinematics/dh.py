@@ -74,7 +74,7 @@ def dh_to_screws(rows: Sequence[DHRow], base=None, tool=None, modified: bool = F
         if modified:
             T_axis = T @ mdh_transform(row.a, row.alpha, 0.0, 0.0)
             T = T @ link(row.a, row.alpha, d, theta)
-            # the joint axis passes through the frame after Rx(alpha) Tx(a); z is unchanged by theta
+            # the axis passes through the frame after Rx(alpha) Tx(a); theta leaves z unchanged
         else:
             T_axis = T
             T = T @ link(row.a, row.alpha, d, theta)

@@ -11,14 +11,13 @@ import os
 from typing import Dict, List
 
 import numpy as np
-import yaml
-
 from px100_control.errors import RobotModelError, UnknownRobotError
-from px100_control.kinematics.dh import DHRow, dh_to_screws, tool_from_xyz_rpy
+from px100_control.kinematics.dh import dh_to_screws, DHRow, tool_from_xyz_rpy
 from px100_control.kinematics.se3 import screw_axis
 from px100_control.models.robot_model import GripperSpec, RobotModel
 from px100_control.models.urdf_chain import chain_to_poe, load_urdf
 from px100_control.paths import data_path
+import yaml
 
 
 def robots_dir() -> str:
@@ -81,20 +80,20 @@ def table_to_poe(kin: dict):
             else:
                 cols.append(screw_axis(j['omega'], j.get('point', (0, 0, 0))))
         return np.column_stack(cols), _matrix(kin.get('M')), joints
-    raise RobotModelError(f"kinematics convention must be dh, mdh or poe, not {convention!r}")
+    raise RobotModelError(f'kinematics convention must be dh, mdh or poe, not {convention!r}')
 
 
 def _from_table(spec: dict) -> Dict:
     S, M, joints = table_to_poe(spec['kinematics'])
-    return dict(
-        S_list=S, M=M,
-        joint_names=tuple(j['name'] for j in joints),
-        joint_types=tuple(j.get('type', 'revolute') for j in joints),
-        lower=np.array([float(j.get('lower', -np.pi)) for j in joints]),
-        upper=np.array([float(j.get('upper', np.pi)) for j in joints]),
-        velocity_limits=np.array([float(j.get('velocity', np.pi)) for j in joints]),
-        effort_limits=np.array([float(j.get('effort', 1.0)) for j in joints]),
-    )
+    return {
+        'S_list': S, 'M': M,
+        'joint_names': tuple(j['name'] for j in joints),
+        'joint_types': tuple(j.get('type', 'revolute') for j in joints),
+        'lower': np.array([float(j.get('lower', -np.pi)) for j in joints]),
+        'upper': np.array([float(j.get('upper', np.pi)) for j in joints]),
+        'velocity_limits': np.array([float(j.get('velocity', np.pi)) for j in joints]),
+        'effort_limits': np.array([float(j.get('effort', 1.0)) for j in joints]),
+    }
 
 
 def _from_urdf(spec: dict, urdf_xml: str) -> Dict:
@@ -103,14 +102,15 @@ def _from_urdf(spec: dict, urdf_xml: str) -> Dict:
     S, M, limits = chain_to_poe(urdf, spec.get('base_frame', 'base_link'),
                                 spec.get('ee_frame', 'ee_gripper_link'), names)
     types = {j.name: j.type for j in urdf.robot.joints}
-    return dict(
-        S_list=S, M=M, joint_names=names,
-        joint_types=tuple('prismatic' if types[n] == 'prismatic' else 'revolute' for n in names),
-        lower=np.array([limits[n][0] for n in names]),
-        upper=np.array([limits[n][1] for n in names]),
-        velocity_limits=np.array([limits[n][2] for n in names]),
-        effort_limits=np.array([limits[n][3] for n in names]),
-    )
+    return {
+        'S_list': S, 'M': M, 'joint_names': names,
+        'joint_types': tuple('prismatic' if types[n] == 'prismatic' else 'revolute'
+                             for n in names),
+        'lower': np.array([limits[n][0] for n in names]),
+        'upper': np.array([limits[n][1] for n in names]),
+        'velocity_limits': np.array([limits[n][2] for n in names]),
+        'effort_limits': np.array([limits[n][3] for n in names]),
+    }
 
 
 def model_from_spec(spec: dict) -> RobotModel:

@@ -63,7 +63,7 @@ class RobotModel:
 
     @property
     def dof(self) -> int:
-        """Number of arm joints."""
+        """Return the number of arm joints."""
         return len(self.joint_names)
 
     def fk(self, q) -> np.ndarray:

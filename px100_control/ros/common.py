@@ -9,11 +9,10 @@ Topic names are ``/<robot_name>/<name>``; an empty robot_name makes them relativ
 import argparse
 from typing import List, Optional, Sequence
 
-from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 #: latched topics (robot_description, trajectory/status)
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,

@@ -5,13 +5,12 @@ Poses are (4, 4) transforms in meters; stamps identify requests and goals (the i
 shared/reference/ros_interfaces.md): ``stamp_id`` is ``'sec.nanosec'`` and ``stamp_uuid`` a
 deterministic UUID derived from the stamp (for action_msgs GoalInfo).
 """
-import uuid
 from typing import Iterable, Tuple
+import uuid
 
-import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose
-
+import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.rotations import matrix_to_quaternion, quaternion_to_matrix
 
