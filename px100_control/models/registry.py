@@ -5,7 +5,14 @@ A robot file gives either a ``urdf`` (a file in ``urdf/``; kinematics and limits
 or a ``kinematics`` table (``convention: dh | mdh | poe``, one entry per joint with limits).
 Optional ``alternative_models`` hold the same robot in other conventions (tests prove that
 they agree). See ``config/robots/px100.yaml`` for the schema.
+
+A table robot has no URDF file: ``model_from_spec`` generates one (``models/urdf_writer.py``:
+exact kinematics, approximate inertials, primitive visuals), so every robot publishes one on
+``robot_description``. Its optional ``inertial: {rod_mass_per_m, motor_mass}`` section tunes
+those approximate inertials (see urdf_writer). Table examples: ``config/robots/rrrp.yaml``
+(mdh), ``rrrr.yaml`` (dh), ``myarm300pi.yaml`` and ``px150.yaml`` (poe).
 """
+import dataclasses
 import functools
 import os
 from typing import Dict, List
@@ -135,7 +142,7 @@ def model_from_spec(spec: dict) -> RobotModel:
     sleep = np.array(spec.get('sleep', home), dtype=float)
     if home.size != n or sleep.size != n:
         raise RobotModelError(f"robot '{spec['name']}': home/sleep need {n} values")
-    return RobotModel(
+    model = RobotModel(
         name=spec['name'], home=home, sleep=sleep,
         base_frame=spec.get('base_frame', 'base_link'),
         ee_frame=spec.get('ee_frame', 'ee_gripper_link'),
@@ -144,6 +151,11 @@ def model_from_spec(spec: dict) -> RobotModel:
         description=spec.get('description', ''),
         extra={k: v for k, v in spec.items() if k not in ('name',)},
         **fields)
+    if urdf_xml is None:
+        # table robots publish a generated URDF (exact kinematics, approximate inertials)
+        from px100_control.models.urdf_writer import urdf_from_model
+        model = dataclasses.replace(model, urdf_xml=urdf_from_model(model))
+    return model
 
 
 @functools.lru_cache(maxsize=None)
