@@ -1,0 +1,900 @@
+"""
+InterbotixRobotXSCore: the client's ROS plumbing, wrapping the px100_control nodes.
+
+Interbotix's core talks to its ``xs_sdk`` driver (services, JointGroupCommand...). This one
+talks to the px100_control nodes through the public contract (shared/reference/
+ros_interfaces.md), in namespace ``/<robot_name>``:
+
+- state: ``joint_states`` and ``ee_pose`` from ``sim_driver``;
+- moves: goals on ``trajectory/goal`` (``trajectory_server``), result on ``trajectory/status``
+  (SUCCEEDED / ABORTED / CANCELED), cancel through ``trajectory/cancel``;
+- IK: ``ik/request`` -> ``ik/solution`` + ``ik/status`` (``ik_service``), paths through
+  ``ik/path_request`` -> ``ik/path_solution``;
+- direct setpoints (gripper effort, single motors) on ``commands/joint_setpoints``;
+- torque through ``sim_driver``'s ``torque_enable`` (std_srvs/SetBool) service.
+
+The xs_sdk services are emulated: robot info from the RobotModel (URDF limits and sleep pose),
+operating modes and the Profile_Velocity / Profile_Acceleration registers kept here (they are
+what the arm's moving_time / accel_time become), PID gains and reboots logged as not applicable.
+
+Bounded failure: the constructor waits at most ``connect_timeout`` (keyword, or env
+``PX100_CONNECT_TIMEOUT``, default 10 s) for joint_states and the IK / trajectory peers and then
+raises :class:`InterbotixException` naming what is missing. Every blocking call has a deadline.
+Units: SI (rad, m, s, N*m) everywhere.
+"""
+import copy
+from dataclasses import dataclass, field
+import math
+import os
+import threading
+import time
+from typing import Dict, List, Optional, Sequence, Tuple
+
+from action_msgs.msg import GoalStatus, GoalStatusArray
+from action_msgs.srv import CancelGoal
+from builtin_interfaces.msg import Duration as DurationMsg
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseArray, PoseStamped
+import numpy as np
+from px100_control.client import robot as _robot
+from px100_control.client.robot import InterbotixException
+from px100_control.errors import Px100Error
+from px100_control.models.registry import load_robot
+from px100_control.models.robot_model import RobotModel
+from px100_control.ros.conversions import matrix_to_pose, stamp_id, stamp_key
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.logging import LoggingSeverity
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+#: action_msgs/GoalStatus codes by name and back
+STATUS_NAMES = {
+    GoalStatus.STATUS_UNKNOWN: 'UNKNOWN', GoalStatus.STATUS_ACCEPTED: 'ACCEPTED',
+    GoalStatus.STATUS_EXECUTING: 'EXECUTING', GoalStatus.STATUS_CANCELING: 'CANCELING',
+    GoalStatus.STATUS_SUCCEEDED: 'SUCCEEDED', GoalStatus.STATUS_CANCELED: 'CANCELED',
+    GoalStatus.STATUS_ABORTED: 'ABORTED',
+}
+TERMINAL = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_CANCELED, GoalStatus.STATUS_ABORTED)
+
+_BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+_RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+_LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def env_float(name: str, default: float) -> float:
+    """Return float(os.environ[name]) or default (also when unset or unparsable)."""
+    try:
+        return float(os.environ[name])
+    except (KeyError, ValueError):
+        return default
+
+
+def env_flag(name: str) -> bool:
+    """Return True when the environment variable is 1/true/yes/on."""
+    return os.environ.get(name, '').strip().lower() in ('1', 'true', 'yes', 'on')
+
+
+@dataclass
+class RobotInfo:
+    """The fields of interbotix_xs_msgs/srv/RobotInfo's response (limits in rad or m)."""
+
+    mode: str = ''
+    profile_type: str = ''
+    joint_names: List[str] = field(default_factory=list)
+    joint_ids: List[int] = field(default_factory=list)
+    joint_lower_limits: List[float] = field(default_factory=list)
+    joint_upper_limits: List[float] = field(default_factory=list)
+    joint_velocity_limits: List[float] = field(default_factory=list)
+    joint_sleep_positions: List[float] = field(default_factory=list)
+    joint_state_indices: List[int] = field(default_factory=list)
+    num_joints: int = 0
+    name: List[str] = field(default_factory=list)
+
+
+@dataclass
+class IkReply:
+    """
+    One ik_service answer.
+
+    :param q: (n,) solution [rad] or None
+    :param success: the service solved it (level OK and a solution)
+    :param reason: the status message (``solved`` or why not)
+    :param values: the status key/values (method, errors, ...)
+    """
+
+    q: Optional[np.ndarray]
+    success: bool
+    reason: str
+    values: Dict[str, str]
+
+
+class _Pending:
+    """One request (IK) or goal (trajectory) waiting for its answer."""
+
+    def __init__(self, key):
+        self.key = key
+        self.event = threading.Event()
+        self.status: Optional[int] = None
+        self.solution = None
+        self.diag = None
+        self.reason = ''
+        self.sent_monotonic = time.monotonic()
+
+
+class InterbotixRobotXSCore:
+    """
+    The robot's ROS interface: state, moves, IK and the emulated xs_sdk services.
+
+    :param robot_model: robot model name ('px100'); selects the RobotModel
+    :param robot_name: namespace of the nodes (default: robot_model; '' = no namespace)
+    :param topic_joint_states: joint state topic under the namespace
+    :param logging_level: rclpy LoggingSeverity of the client node's logger
+    :param node_name: kept for compatibility (the global node is always
+        'interbotix_robot_manipulation', as in Interbotix)
+    :param node: (optional) a node to use instead of the global one
+    :param args: ignored (as in Interbotix)
+    :param bringup: start sim_driver, ik_service and trajectory_server in this process
+        (default: env ``PX100_BRINGUP``)
+    :param real_time_factor: simulation speed for an in-process bringup (env
+        ``PX100_REAL_TIME_FACTOR``, default 1)
+    :param connect_timeout: [s] how long to wait for the nodes (env ``PX100_CONNECT_TIMEOUT``,
+        default 10)
+    :param node_kwargs: extra keyword arguments for the in-process nodes
+    """
+
+    def __init__(self, robot_model: str, robot_name: Optional[str] = None,
+                 topic_joint_states: str = 'joint_states',
+                 logging_level: LoggingSeverity = LoggingSeverity.INFO,
+                 node_name: str = 'interbotix_robot_manipulation', node=None, args=None, *,
+                 bringup: Optional[bool] = None, real_time_factor: Optional[float] = None,
+                 connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None):
+        try:
+            self.model: RobotModel = load_robot(robot_model)
+        except Px100Error as exc:
+            raise InterbotixException(f"Unknown robot_model '{robot_model}': {exc}") from exc
+        self.robot_model = robot_model
+        self.robot_name = robot_model if robot_name is None else robot_name.strip('/')
+        self.ns = f'/{self.robot_name}' if self.robot_name else ''
+        self.topic_joint_states = topic_joint_states
+        self.node_name = node_name
+        self.real_time_factor = float(real_time_factor if real_time_factor is not None
+                                      else env_float('PX100_REAL_TIME_FACTOR', 1.0))
+        if not (self.real_time_factor > 0 and math.isfinite(self.real_time_factor)):
+            raise InterbotixException(f'real_time_factor must be > 0, got {real_time_factor}')
+        self.connect_timeout = float(connect_timeout if connect_timeout is not None
+                                     else env_float('PX100_CONNECT_TIMEOUT', 10.0))
+        #: joint_states older than this [s] (wall) mean the driver stopped
+        self.stale_timeout = env_float('PX100_STALE_TIMEOUT', 1.5)
+        self._torn_down = False
+        self.js_mutex = threading.Lock()
+        self.joint_states: Optional[JointState] = None
+        self.ee_pose: Optional[PoseStamped] = None
+        self._js_monotonic = 0.0
+        self._js_count = 0
+        self._pending_lock = threading.Lock()
+        self._goals: Dict[Tuple[int, int], _Pending] = {}
+        self._ik: Dict[Tuple[int, int], _Pending] = {}
+        self._paths: Dict[Tuple[int, int], _Pending] = {}
+        self._last_stamp_ns = 0
+        self._registers: Dict[str, Dict[str, int]] = {}
+        self._modes: Dict[str, Tuple[str, str]] = {}
+        for j in self.model.joint_names:
+            self._registers[j] = {'Profile_Velocity': 2000, 'Profile_Acceleration': 300}
+            self._modes[j] = ('position', 'time')
+        if self.model.gripper is not None:
+            self._registers[self.model.gripper.joint] = {'Profile_Velocity': 0,
+                                                         'Profile_Acceleration': 0}
+            self._modes[self.model.gripper.joint] = ('pwm', 'velocity')
+
+        if bringup is None:
+            bringup = env_flag('PX100_BRINGUP')
+        if node is None:
+            node = _robot.get_interbotix_global_node()
+            if node is None:
+                node = _robot.create_interbotix_global_node()
+        self.robot_node = node
+        self.robot_node.get_logger().set_level(logging_level)
+        _robot.register_robot(self)
+        if bringup:
+            self._start_bringup(node_kwargs or {})
+        self._make_interfaces()
+        _robot.ensure_spinning(self.robot_node)
+        self._wait_for_peers()
+        self.js_index_map = {n: i for i, n in enumerate(self.joint_states.name)}
+        self.get_node().loginfo(
+            f'\n\tRobot Name: {self.robot_name}\n\tRobot Model: {self.robot_model}')
+        self.get_node().loginfo('Initialized InterbotixRobotXSCore!')
+
+    # ------------------------------------------------------------------ setup
+    def _start_bringup(self, node_kwargs: dict) -> None:
+        from px100_control.client.inprocess import InProcessBringup
+        existing = _robot.get_bringup()
+        if existing is not None:
+            if existing.robot_name == self.robot_name:
+                return
+            raise InterbotixException(
+                f"an in-process bringup for '{existing.robot_name}' is already running")
+        bringup = InProcessBringup(self.robot_model, self.robot_name,
+                                   real_time_factor=self.real_time_factor, **node_kwargs)
+        bringup.start(context=self.robot_node.context)
+        _robot.set_bringup(bringup)
+
+    def topic(self, name: str) -> str:
+        """Return the absolute topic/service name ``/<robot_name>/<name>``."""
+        return f'{self.ns}/{name}' if self.ns else name
+
+    def _make_interfaces(self) -> None:
+        n = self.robot_node
+        cbg = ReentrantCallbackGroup()
+        self._cbg = cbg
+        self.sub_joint_states = n.create_subscription(
+            JointState, self.topic(self.topic_joint_states), self._joint_state_cb, _BEST_EFFORT,
+            callback_group=cbg)
+        self.sub_ee_pose = n.create_subscription(
+            PoseStamped, self.topic('ee_pose'), self._ee_pose_cb, _BEST_EFFORT,
+            callback_group=cbg)
+        self.pub_setpoints = n.create_publisher(
+            JointState, self.topic('commands/joint_setpoints'), _RELIABLE)
+        self.pub_goal = n.create_publisher(
+            JointTrajectory, self.topic('trajectory/goal'), _RELIABLE)
+        self.sub_status = n.create_subscription(
+            GoalStatusArray, self.topic('trajectory/status'), self._status_cb, _LATCHED,
+            callback_group=cbg)
+        self.pub_ik = n.create_publisher(PoseStamped, self.topic('ik/request'), _RELIABLE)
+        self.sub_ik_solution = n.create_subscription(
+            JointState, self.topic('ik/solution'), self._ik_solution_cb, _RELIABLE,
+            callback_group=cbg)
+        self.sub_ik_status = n.create_subscription(
+            DiagnosticStatus, self.topic('ik/status'), self._ik_status_cb, _RELIABLE,
+            callback_group=cbg)
+        self.pub_ik_path = n.create_publisher(PoseArray, self.topic('ik/path_request'),
+                                              _RELIABLE)
+        self.sub_ik_path = n.create_subscription(
+            JointTrajectory, self.topic('ik/path_solution'), self._ik_path_cb, _RELIABLE,
+            callback_group=cbg)
+        self.sub_diagnostics = n.create_subscription(
+            DiagnosticArray, '/diagnostics', self._diagnostics_cb, _RELIABLE,
+            callback_group=cbg)
+        self.srv_torque = n.create_client(SetBool, self.topic('torque_enable'),
+                                          callback_group=cbg)
+        self.srv_reset = n.create_client(Trigger, self.topic('reset'), callback_group=cbg)
+        self.srv_cancel = n.create_client(CancelGoal, self.topic('trajectory/cancel'),
+                                          callback_group=cbg)
+
+    def _missing_peers(self) -> List[str]:
+        """Return what is still missing, in words (empty when everything is there)."""
+        missing = []
+        if self.joint_states is None:
+            missing.append(f"no joint states on '{self.topic(self.topic_joint_states)}' "
+                           '(sim_driver)')
+        if self.pub_goal.get_subscription_count() == 0 or \
+                self.sub_status.get_publisher_count() == 0:
+            missing.append(f"no trajectory_server on '{self.topic('trajectory/goal')}' / "
+                           f"'{self.topic('trajectory/status')}'")
+        if self.pub_ik.get_subscription_count() == 0 or \
+                self.sub_ik_solution.get_publisher_count() == 0 or \
+                self.sub_ik_status.get_publisher_count() == 0:
+            missing.append(f"no ik_service on '{self.topic('ik/request')}' / "
+                           f"'{self.topic('ik/solution')}'")
+        return missing
+
+    def _wait_for_peers(self) -> None:
+        """Wait up to connect_timeout for the nodes; raise InterbotixException naming the gaps."""
+        start = time.monotonic()
+        deadline = start + self.connect_timeout
+        next_log = start + 2.0
+        while True:
+            missing = self._missing_peers()
+            if not missing:
+                # the matched publishers above are discovered; give the reverse direction (their
+                # view of our subscriptions) a moment so the first replies are not dropped
+                time.sleep(0.05)
+                return
+            now = time.monotonic()
+            if now >= deadline:
+                break
+            if now >= next_log:
+                self.get_node().logwarn('Waiting for ' + '; '.join(missing))
+                next_log = now + 2.0
+            time.sleep(0.02)
+        message = (
+            f"Failed to find the px100_control nodes under namespace '{self.ns or '/'}' within "
+            f"{self.connect_timeout:.1f} s: {'; '.join(missing)}. Is sim_driver (with ik_service "
+            'and trajectory_server) running under that namespace? Start them with '
+            "'ros2 run px100_control bringup', or construct the robot with bringup=True "
+            '(or PX100_BRINGUP=1) to run them in this process.')
+        self.get_node().logerror(message)
+        raise InterbotixException(message)
+
+    def _teardown(self) -> None:
+        """Release waiters (called by robot_shutdown)."""
+        self._torn_down = True
+        with self._pending_lock:
+            for p in list(self._goals.values()) + list(self._ik.values()) + \
+                    list(self._paths.values()):
+                p.reason = p.reason or 'robot_shutdown() was called'
+                p.event.set()
+
+    # -------------------------------------------------------------- callbacks
+    def _joint_state_cb(self, msg: JointState) -> None:
+        with self.js_mutex:
+            self.joint_states = msg
+            self._js_monotonic = time.monotonic()
+            self._js_count += 1
+
+    def _ee_pose_cb(self, msg: PoseStamped) -> None:
+        self.ee_pose = msg
+
+    def _status_cb(self, msg: GoalStatusArray) -> None:
+        with self._pending_lock:
+            for s in msg.status_list:
+                p = self._goals.get(stamp_key(s.goal_info.stamp))
+                if p is None:
+                    continue
+                p.status = s.status
+                if s.status in TERMINAL:
+                    p.event.set()
+
+    def _ik_solution_cb(self, msg: JointState) -> None:
+        with self._pending_lock:
+            p = self._ik.get(stamp_key(msg.header.stamp))
+            if p is not None:
+                p.solution = msg
+                if p.diag is not None:
+                    p.event.set()
+
+    def _ik_status_cb(self, msg: DiagnosticStatus) -> None:
+        key = _parse_id(msg.hardware_id)
+        with self._pending_lock:
+            p = self._ik.get(key) if key is not None else None
+            if p is not None:
+                p.diag = msg
+                if p.solution is not None:
+                    p.event.set()
+
+    def _ik_path_cb(self, msg: JointTrajectory) -> None:
+        with self._pending_lock:
+            p = self._paths.get(stamp_key(msg.header.stamp))
+            if p is not None:
+                p.solution = msg
+                p.event.set()
+
+    def _diagnostics_cb(self, msg: DiagnosticArray) -> None:
+        with self._pending_lock:
+            if not self._goals:
+                return
+            for st in msg.status:
+                if st.level == DiagnosticStatus.OK:
+                    continue
+                text = ' '.join([st.name, st.hardware_id, st.message] +
+                                [f'{kv.key} {kv.value}' for kv in st.values])
+                for p in self._goals.values():
+                    if p.status in TERMINAL and p.reason:
+                        continue
+                    if stamp_id(_time_of(p.key)) in text:
+                        p.reason = st.message
+
+    # ---------------------------------------------------------------- helpers
+    def get_node(self):
+        """Return the client's ROS node."""
+        return self.robot_node
+
+    def get_logger(self):
+        """Return the client node's logger."""
+        return self.robot_node.get_logger()
+
+    def new_stamp(self) -> Time:
+        """Return a unique, increasing stamp (the request / goal id) from the node clock."""
+        with self._pending_lock:
+            now_ns = self.robot_node.get_clock().now().nanoseconds
+            now_ns = max(now_ns, self._last_stamp_ns + 1)
+            self._last_stamp_ns = now_ns
+        return _time_of((now_ns // 1_000_000_000, now_ns % 1_000_000_000))
+
+    def sleep(self, seconds: float) -> None:
+        """Sleep ``seconds`` of simulated time (wall seconds / real_time_factor)."""
+        if seconds > 0:
+            time.sleep(seconds / self.real_time_factor)
+
+    def joint_state_age(self) -> float:
+        """Return the wall time [s] since the last joint_states message (inf before any)."""
+        with self.js_mutex:
+            if self.joint_states is None:
+                return math.inf
+            return time.monotonic() - self._js_monotonic
+
+    def _driver_problem(self) -> Optional[str]:
+        """Return why the driver looks dead, or None."""
+        age = self.joint_state_age()
+        if age > self.stale_timeout:
+            return (f"joint states on '{self.topic(self.topic_joint_states)}' stopped "
+                    f'{age:.1f} s ago: is sim_driver still running under namespace '
+                    f"'{self.ns or '/'}'?")
+        return None
+
+    def joint_positions(self, names: Sequence[str]) -> np.ndarray:
+        """Return the measured positions [rad | m] of ``names`` from the latest joint states."""
+        return self._joint_field(names, 'position')
+
+    def _joint_field(self, names: Sequence[str], fieldname: str) -> np.ndarray:
+        with self.js_mutex:
+            js = self.joint_states
+        values = list(getattr(js, fieldname))
+        index = {n: i for i, n in enumerate(js.name)}
+        out = []
+        for n in names:
+            i = index.get(n)
+            if i is None:
+                raise InterbotixException(f"joint '{n}' is not in the joint states "
+                                          f'({list(js.name)})')
+            if i >= len(values):
+                raise InterbotixException(
+                    f"the joint states carry no {fieldname} for '{n}' (driver publishes "
+                    f'{len(values)} {fieldname} values for {len(js.name)} joints)')
+            out.append(float(values[i]))
+        return np.array(out)
+
+    def measured_ee_pose(self) -> Optional[np.ndarray]:
+        """Return the latest (4, 4) pose published on ``ee_pose`` by sim_driver (or None)."""
+        from px100_control.ros.conversions import pose_to_matrix
+        msg = self.ee_pose
+        if msg is None:
+            return None
+        T, _ = pose_to_matrix(msg.pose)
+        return T
+
+    # ----------------------------------------------------------------- goals
+    def send_trajectory(self, joint_names: Sequence[str], points: Sequence[Sequence[float]],
+                        times: Sequence[float], accel_time: Optional[float] = None) -> _Pending:
+        """
+        Publish a trajectory goal to trajectory_server and return its pending handle.
+
+        :param joint_names: a subset of the arm's joints
+        :param points: (k, len(joint_names)) positions [rad]
+        :param times: (k,) strictly increasing time_from_start [s]; one point = move there
+        :param accel_time: [s] trapezoid ramp time for a one-point goal (None: server default)
+        :raises InterbotixException: no trajectory_server is listening
+        """
+        if self.pub_goal.get_subscription_count() == 0:
+            raise InterbotixException(
+                f"no trajectory_server subscribes to '{self.topic('trajectory/goal')}': is "
+                f"trajectory_server running under namespace '{self.ns or '/'}'?")
+        msg = JointTrajectory()
+        msg.header.stamp = self.new_stamp()
+        msg.header.frame_id = ''
+        msg.joint_names = [str(n) for n in joint_names]
+        for pos, t in zip(points, times):
+            pt = JointTrajectoryPoint()
+            pt.positions = [float(v) for v in pos]
+            pt.time_from_start = _duration(t)
+            msg.points.append(pt)
+        if accel_time is not None and len(msg.points) == 1:
+            _encode_accel_time(msg, accel_time)
+        pending = _Pending(stamp_key(msg.header.stamp))
+        with self._pending_lock:
+            self._goals[pending.key] = pending
+            self._prune(self._goals)
+        self.pub_goal.publish(msg)
+        return pending
+
+    def wait_for_goal(self, pending: _Pending, timeout: float) -> Tuple[bool, str]:
+        """
+        Wait until the goal ends or ``timeout`` [s wall] passes; watch the driver meanwhile.
+
+        :return: (succeeded, reason in words when not)
+        """
+        deadline = time.monotonic() + timeout
+        gid = stamp_id(_time_of(pending.key))
+        while not pending.event.wait(0.02):
+            if self._torn_down:
+                break
+            problem = self._driver_problem()
+            if problem is not None:
+                self.cancel_goal(pending)
+                return False, problem
+            if time.monotonic() > deadline:
+                self.cancel_goal(pending)
+                state = STATUS_NAMES.get(pending.status, 'no status at all')
+                return False, (f'trajectory_server did not finish goal {gid} within '
+                               f'{timeout:.1f} s (last status: {state}): is trajectory_server '
+                               f"still running under namespace '{self.ns or '/'}'?")
+        if pending.status == GoalStatus.STATUS_SUCCEEDED:
+            problem = self._driver_problem()
+            if problem is not None:
+                return False, problem
+            return True, ''
+        if self._torn_down and pending.status not in TERMINAL:
+            return False, 'robot_shutdown() was called during the move'
+        state = STATUS_NAMES.get(pending.status, 'UNKNOWN')
+        reason = pending.reason or 'see the trajectory_server log / /diagnostics'
+        return False, f'goal {gid} ended {state}: {reason}'
+
+    def goal_status(self, pending: _Pending) -> str:
+        """Return the latest status name of a goal ('NONE' before any)."""
+        return STATUS_NAMES.get(pending.status, 'NONE') if pending.status is not None \
+            else 'NONE'
+
+    def cancel_goal(self, pending: Optional[_Pending] = None, timeout: float = 1.0) -> bool:
+        """Cancel one goal (or all with None) through ``trajectory/cancel``; True if accepted."""
+        if not self.srv_cancel.service_is_ready():
+            return False
+        req = CancelGoal.Request()
+        if pending is not None:
+            req.goal_info.stamp = _time_of(pending.key)
+        future = self.srv_cancel.call_async(req)
+        end = time.monotonic() + timeout
+        while not future.done() and time.monotonic() < end:
+            time.sleep(0.005)
+        return future.done() and future.result() is not None and \
+            future.result().return_code == CancelGoal.Response.ERROR_NONE
+
+    def _prune(self, table: dict, keep: int = 200) -> None:
+        if len(table) > keep:
+            for k in sorted(table)[:len(table) - keep]:
+                del table[k]
+
+    # -------------------------------------------------------------------- IK
+    def request_ik(self, T_sd: np.ndarray, orientation_free: bool = False,
+                   timeout: float = 5.0) -> IkReply:
+        """
+        Ask ik_service for the joints that put the end effector at T_sd (4, 4) [m].
+
+        :param orientation_free: position-only IK (all-zero quaternion)
+        :raises InterbotixException: ik_service is missing or did not answer within timeout
+        """
+        if self.pub_ik.get_subscription_count() == 0:
+            raise InterbotixException(
+                f"no ik_service subscribes to '{self.topic('ik/request')}': is ik_service "
+                f"running under namespace '{self.ns or '/'}'?")
+        msg = PoseStamped()
+        msg.header.stamp = self.new_stamp()
+        msg.header.frame_id = f'{self.robot_name}/{self.model.base_frame}' \
+            if self.robot_name else self.model.base_frame
+        msg.pose = matrix_to_pose(np.asarray(T_sd, dtype=float))
+        if orientation_free:
+            o = msg.pose.orientation
+            o.x = o.y = o.z = o.w = 0.0
+        pending = _Pending(stamp_key(msg.header.stamp))
+        with self._pending_lock:
+            self._ik[pending.key] = pending
+        try:
+            self.pub_ik.publish(msg)
+            if not pending.event.wait(timeout) or pending.solution is None or \
+                    pending.diag is None:
+                if self._torn_down:
+                    raise InterbotixException('robot_shutdown() was called during an IK request')
+                raise InterbotixException(
+                    f'ik_service did not answer IK request {stamp_id(msg.header.stamp)} within '
+                    f'{timeout:.1f} s: is ik_service still running under namespace '
+                    f"'{self.ns or '/'}'?")
+        finally:
+            with self._pending_lock:
+                self._ik.pop(pending.key, None)
+        sol, diag = pending.solution, pending.diag
+        values = {kv.key: kv.value for kv in diag.values}
+        q = None
+        if len(sol.position) > 0:
+            by_name = dict(zip(sol.name, sol.position))
+            try:
+                q = np.array([by_name[j] for j in self.model.joint_names], dtype=float)
+            except KeyError:
+                q = np.array(sol.position, dtype=float)
+        ok = diag.level == DiagnosticStatus.OK and q is not None
+        return IkReply(q=q, success=ok, reason=diag.message, values=values)
+
+    def request_ik_path(self, poses: Sequence[np.ndarray], timeout: float = 10.0) -> \
+            JointTrajectory:
+        """
+        Ask ik_service for a joint path through Cartesian poses (each seeded by the previous).
+
+        :return: the JointTrajectory answer (one point per solved pose)
+        :raises InterbotixException: ik_service is missing or did not answer
+        """
+        if self.pub_ik_path.get_subscription_count() == 0:
+            raise InterbotixException(
+                f"no ik_service subscribes to '{self.topic('ik/path_request')}': is ik_service "
+                f"running under namespace '{self.ns or '/'}'?")
+        msg = PoseArray()
+        msg.header.stamp = self.new_stamp()
+        msg.header.frame_id = f'{self.robot_name}/{self.model.base_frame}' \
+            if self.robot_name else self.model.base_frame
+        msg.poses = [matrix_to_pose(np.asarray(T, dtype=float)) for T in poses]
+        pending = _Pending(stamp_key(msg.header.stamp))
+        with self._pending_lock:
+            self._paths[pending.key] = pending
+        try:
+            self.pub_ik_path.publish(msg)
+            if not pending.event.wait(timeout) or pending.solution is None:
+                raise InterbotixException(
+                    f'ik_service did not answer path request {stamp_id(msg.header.stamp)} '
+                    f'within {timeout:.1f} s: is ik_service still running under namespace '
+                    f"'{self.ns or '/'}'?")
+        finally:
+            with self._pending_lock:
+                self._paths.pop(pending.key, None)
+        return pending.solution
+
+    # ------------------------------------------------------------- setpoints
+    def publish_setpoints(self, names: Sequence[str], positions=None, efforts=None) -> None:
+        """Publish a JointState setpoint straight to sim_driver (position and/or effort)."""
+        msg = JointState()
+        msg.header.stamp = self.robot_node.get_clock().now().to_msg()
+        msg.name = [str(n) for n in names]
+        if positions is not None:
+            msg.position = [float(v) for v in positions]
+        if efforts is not None:
+            msg.effort = [float(v) for v in efforts]
+        self.pub_setpoints.publish(msg)
+
+    # ------------------------------------------------ emulated xs_sdk services
+    def _names_of(self, cmd_type: str, name: str) -> List[str]:
+        """Return the joints addressed by (cmd_type, name)."""
+        g = self.model.gripper
+        if cmd_type == 'group':
+            if name in ('arm', getattr(self, '_group_name', 'arm')):
+                return list(self.model.joint_names)
+            if name == 'all':
+                return list(self.model.joint_names) + ([g.joint] if g else [])
+        elif cmd_type == 'single':
+            if name in self.model.joint_names or (g is not None and name == g.joint):
+                return [name]
+        else:
+            raise InterbotixException(f"cmd_type must be 'group' or 'single', not {cmd_type!r}")
+        raise InterbotixException(
+            f"no {cmd_type} named '{name}' on {self.robot_model} (groups: arm, all; joints: "
+            f"{', '.join(self._registers)})")
+
+    def robot_set_operating_modes(self, cmd_type: str, name: str, mode: str,
+                                  profile_type: str = 'velocity', profile_velocity: int = 0,
+                                  profile_acceleration: int = 0) -> None:
+        """
+        Set the operating mode of a group or motor (emulated: remembered, reported by info).
+
+        The arm is always driven in position mode through trajectory_server, the gripper in
+        effort (pwm/current) or position mode; other modes are refused with an error log.
+        With profile_type 'time', profile_velocity / profile_acceleration [ms] set the
+        Profile_Velocity / Profile_Acceleration registers.
+        """
+        names = self._names_of(cmd_type, name)
+        g = self.model.gripper
+        for j in names:
+            allowed = ('pwm', 'current', 'position') if g is not None and j == g.joint \
+                else ('position', 'ext_position', 'current_based_position')
+            if mode not in allowed:
+                self.get_node().logerror(
+                    f"Operating mode '{mode}' is not emulated for '{j}' (supported: "
+                    f"{', '.join(allowed)}); keeping '{self._modes[j][0]}'.")
+                continue
+            self._modes[j] = (mode, profile_type)
+            if profile_type == 'time':
+                self._registers[j]['Profile_Velocity'] = int(profile_velocity)
+                self._registers[j]['Profile_Acceleration'] = int(profile_acceleration)
+
+    def robot_set_motor_pid_gains(self, cmd_type: str, name: str, kp_pos: int, ki_pos: int = 0,
+                                  kd_pos: int = 0, k1: int = 0, k2: int = 0, kp_vel: int = 100,
+                                  ki_vel: int = 1920) -> None:
+        """
+        Not emulated: DYNAMIXEL register gains have no SI meaning for sim_driver.
+
+        Logs an error saying how to change the simulated PID gains instead.
+        """
+        self._names_of(cmd_type, name)
+        self.get_node().logerror(
+            'robot_set_motor_pid_gains is not emulated: the simulated joints use SI PID gains. '
+            f"Set sim_driver's 'gains.<joint>.p|i|d' parameters instead (e.g. ros2 param set "
+            f'{self.ns}/sim_driver gains.shoulder.p 20.0).')
+
+    def robot_set_motor_registers(self, cmd_type: str, name: str, reg: str, value: int) -> None:
+        """Set a register of a group or motor (emulated: stored and readable back)."""
+        for j in self._names_of(cmd_type, name):
+            self._registers[j][str(reg)] = int(value)
+
+    def robot_get_motor_registers(self, cmd_type: str, name: str, reg: str) -> List[int]:
+        """Return the register's values, one per motor (0 for a register never written)."""
+        return [int(self._registers[j].get(str(reg), 0)) for j in self._names_of(cmd_type, name)]
+
+    def robot_get_robot_info(self, cmd_type: str, name: str) -> RobotInfo:
+        """
+        Return a RobotInfo (limits, sleep positions, joint-state indices) of a group or motor.
+
+        As in Interbotix the gripper motor is described by its left finger (limits in m).
+        """
+        names = self._names_of(cmd_type, name)
+        m, g = self.model, self.model.gripper
+        info = RobotInfo(name=['all', 'arm'] if cmd_type == 'group' else [name])
+        js = self.js_index_map if hasattr(self, 'js_index_map') else {}
+        for j in names:
+            if g is not None and j == g.joint:
+                finger = g.fingers[0]
+                info.joint_names.append(j)
+                info.joint_ids.append(m.dof + 1)
+                info.joint_lower_limits.append(float(g.finger_lower))
+                info.joint_upper_limits.append(float(g.finger_upper))
+                info.joint_velocity_limits.append(1.0)
+                info.joint_sleep_positions.append(float(
+                    math.sqrt(g.arm_length ** 2 - g.horn_radius ** 2)))
+                info.joint_state_indices.append(js.get(finger, -1))
+            else:
+                i = m.joint_index(j)
+                info.joint_names.append(j)
+                info.joint_ids.append(i + 1)
+                info.joint_lower_limits.append(float(m.lower[i]))
+                info.joint_upper_limits.append(float(m.upper[i]))
+                info.joint_velocity_limits.append(float(m.velocity_limits[i]))
+                info.joint_sleep_positions.append(float(m.sleep[i]))
+                info.joint_state_indices.append(js.get(j, -1))
+        info.num_joints = len(info.joint_names)
+        info.mode, info.profile_type = self._modes[names[0]]
+        return info
+
+    def robot_torque_enable(self, cmd_type: str, name: str, enable: bool,
+                            timeout: float = 3.0) -> bool:
+        """
+        Torque motors on or off through sim_driver's ``torque_enable`` service.
+
+        The simulated driver switches the whole robot; a single motor or group other than
+        'all'/'arm' is switched with it (a warning says so). Returns the service's success.
+        """
+        names = self._names_of(cmd_type, name)
+        if set(names) != set(self._names_of('group', 'all')):
+            self.get_node().logwarn(
+                f"sim_driver's torque_enable switches every joint; '{name}' is not "
+                'switched alone.')
+        if not self.srv_torque.wait_for_service(timeout_sec=timeout):
+            self.get_node().logerror(
+                f"Failed to find service '{self.topic('torque_enable')}'. Is sim_driver running "
+                f"under namespace '{self.ns or '/'}'?")
+            return False
+        return self._call(self.srv_torque, SetBool.Request(data=bool(enable)), timeout)
+
+    def robot_reboot_motors(self, cmd_type: str, name: str, enable: bool,
+                            smart_reboot: bool = False) -> None:
+        """Reboot motors (emulated: simulated servos have no error state; torque set to enable)."""
+        self._names_of(cmd_type, name)
+        self.get_node().loginfo(
+            f"Reboot of {cmd_type} '{name}' emulated: simulated servos never enter an error "
+            'state.')
+        self.robot_torque_enable(cmd_type, name, enable)
+
+    def robot_reset(self, timeout: float = 3.0) -> bool:
+        """Put the simulation back at the sleep pose through sim_driver's ``reset`` service."""
+        if not self.srv_reset.wait_for_service(timeout_sec=timeout):
+            self.get_node().logerror(f"Failed to find service '{self.topic('reset')}'.")
+            return False
+        return self._call(self.srv_reset, Trigger.Request(), timeout)
+
+    def _call(self, client, request, timeout: float) -> bool:
+        future = client.call_async(request)
+        end = time.monotonic() + timeout
+        while not future.done() and time.monotonic() < end:
+            time.sleep(0.005)
+        if not future.done():
+            self.get_node().logerror(f"Service '{client.srv_name}' did not answer within "
+                                     f'{timeout:.1f} s.')
+            return False
+        res = future.result()
+        if res is not None and not res.success:
+            self.get_node().logwarn(f"Service '{client.srv_name}': {res.message}")
+        return bool(res is not None and res.success)
+
+    def robot_write_commands(self, group_name: str, commands: Sequence[float]) -> None:
+        """
+        Command a group (non-blocking), like JointGroupCommand in position mode.
+
+        The move lasts the group's Profile_Velocity register [ms] (time profile), with
+        Profile_Acceleration [ms] ramps, through trajectory_server.
+        """
+        names = self._names_of('group', group_name)
+        cmds = [float(c) for c in commands]
+        if len(cmds) != len(names):
+            self.get_node().logerror(
+                f'Number of commands ({len(cmds)}) does not match the number of joints in group '
+                f"'{group_name}' ({len(names)}). Will not execute.")
+            return
+        g = self.model.gripper
+        arm = [(n, c) for n, c in zip(names, cmds) if g is None or n != g.joint]
+        if g is not None and g.joint in names:
+            self.robot_write_joint_command(g.joint, cmds[names.index(g.joint)])
+        if arm:
+            mt, at = self._profile_times(arm[0][0])
+            self.send_trajectory([n for n, _ in arm], [[c for _, c in arm]], [mt], at)
+
+    def _profile_times(self, joint: str) -> Tuple[float, float]:
+        regs = self._registers[joint]
+        mt = max(regs.get('Profile_Velocity', 2000), 1) / 1000.0
+        at = regs.get('Profile_Acceleration', 300) / 1000.0
+        return mt, min(at, mt / 2)
+
+    def robot_write_joint_command(self, joint_name: str, command: float) -> None:
+        """
+        Command one motor (non-blocking), like JointSingleCommand.
+
+        Gripper in pwm/current mode: ``command`` is PWM, sent as an effort setpoint [N*m];
+        in position mode a position [rad]. An arm joint moves through trajectory_server.
+        """
+        names = self._names_of('single', joint_name)
+        g = self.model.gripper
+        if g is not None and names[0] == g.joint:
+            from px100_control.client.gripper import pwm_to_effort
+            if self._modes[g.joint][0] == 'position':
+                self.publish_setpoints([g.joint], positions=[float(command)])
+            else:
+                self.publish_setpoints([g.joint], efforts=[pwm_to_effort(float(command))])
+            return
+        mt, at = self._profile_times(joint_name)
+        self.send_trajectory([joint_name], [[float(command)]], [mt], at)
+
+    def robot_write_trajectory(self, cmd_type: str, name: str, traj_type: str,
+                               raw_traj: Sequence[dict]) -> None:
+        """
+        Command a position trajectory (non-blocking).
+
+        :param raw_traj: list of ``{t [s]: [positions]}``; a point at t = 0 is taken as the
+            start and skipped (trajectory_server starts from the measured state)
+        """
+        names = self._names_of(cmd_type, name)
+        if traj_type != 'position':
+            self.get_node().logerror(
+                f"traj_type '{traj_type}' is not emulated: trajectory_server executes position "
+                'trajectories only.')
+            return
+        pts, times = [], []
+        for point in raw_traj:
+            for t, values in point.items():
+                if float(t) <= 0.0:
+                    continue
+                pts.append(list(values))
+                times.append(float(t))
+        if not pts:
+            self.get_node().logerror('Trajectory has no point after t = 0. Aborting...')
+            return
+        self.send_trajectory(names, pts, times)
+
+    def robot_get_joint_states(self) -> JointState:
+        """Return a copy of the latest JointState (position, velocity, effort of every joint)."""
+        with self.js_mutex:
+            return copy.deepcopy(self.joint_states)
+
+    def robot_get_single_joint_state(self, name: str) -> dict:
+        """Return {'position', 'velocity', 'effort'} of one joint (rad, rad/s, N*m)."""
+        with self.js_mutex:
+            js = copy.deepcopy(self.joint_states)
+        try:
+            i = list(js.name).index(name)
+        except ValueError:
+            raise InterbotixException(f"joint '{name}' is not in the joint states "
+                                      f'({list(js.name)})') from None
+
+        def at(values):
+            return float(values[i]) if i < len(values) else float('nan')
+        return {'position': at(js.position), 'velocity': at(js.velocity),
+                'effort': at(js.effort)}
+
+
+def _time_of(key: Tuple[int, int]) -> Time:
+    return Time(sec=int(key[0]), nanosec=int(key[1]))
+
+
+def _parse_id(text: str) -> Optional[Tuple[int, int]]:
+    """Return the (sec, nanosec) key of an id text 'sec.nanosec' (None if it is not one)."""
+    try:
+        sec, nsec = text.strip().split('.')
+        return int(sec), int(nsec)
+    except ValueError:
+        return None
+
+
+def _duration(t: float) -> DurationMsg:
+    sec = int(math.floor(t))
+    return DurationMsg(sec=sec, nanosec=int(round((t - sec) * 1e9)) % 1_000_000_000)
+
+
+def _encode_accel_time(msg: JointTrajectory, accel_time: float) -> None:
+    """Express a one-point goal's trapezoid ramp time as trajectory_server expects it."""
+    # placeholder until trajectory_server's convention is known: a second field is not part
+    # of the contract, so the server's default profile applies
+    return None

@@ -1,0 +1,159 @@
+"""
+InterbotixGripperXSInterface: the gripper part of the Interbotix-compatible client.
+
+As in ``interbotix_xs_modules.xs_robot.gripper``: the gripper servo runs in PWM mode;
+``gripper_pressure`` p in [0, 1] gives ``gripper_value = lower + p (upper - lower)`` PWM
+(150..350, 250 by default); ``release()`` drives +value (opens), ``grasp()`` -value (closes);
+a 50 Hz timer stops the drive once the left finger passes its limit (an object between the
+fingers keeps being squeezed). ROS 1 scripts' ``open()`` / ``close()`` are aliases of
+release / grasp.
+
+Units at the edge: sim_driver takes the gripper effort in N*m (SI), so the PWM value is mapped
+by :func:`pwm_to_effort`, the XL430-W250's linear PWM-to-torque model: ``effort = pwm / 885 *
+1.4`` N*m (885 = PWM limit, 1.4 N*m = stall torque at 12 V); 250 PWM -> 0.395 N*m. Finger
+positions are metres from the fingers link, gripper angle rad, effort N*m.
+"""
+from typing import Optional
+
+from px100_control.client.core import InterbotixRobotXSCore
+from px100_control.client.robot import InterbotixException
+
+#: XL430-W250 PWM limit (register 36 default) and stall torque [N*m] at 12 V
+PWM_LIMIT = 885.0
+STALL_TORQUE = 1.4
+#: a finger this close to a limit [m] counts as there (the simulated linkage stops at it)
+FINGER_TOLERANCE = 2e-4
+
+
+def pwm_to_effort(pwm: float) -> float:
+    """Return the gripper torque [N*m] of a signed PWM command (clipped to +-PWM_LIMIT)."""
+    pwm = max(-PWM_LIMIT, min(PWM_LIMIT, float(pwm)))
+    return pwm / PWM_LIMIT * STALL_TORQUE
+
+
+def effort_to_pwm(effort: float) -> float:
+    """Return the signed PWM of a gripper torque [N*m] (inverse of pwm_to_effort)."""
+    return float(effort) / STALL_TORQUE * PWM_LIMIT
+
+
+class InterbotixGripperXSInterface:
+    """
+    The gripper of an X-Series arm (PWM-driven, fingers reported in metres).
+
+    :param core: the robot's InterbotixRobotXSCore
+    :param gripper_name: the gripper motor ('gripper')
+    :param gripper_pressure: fraction 0..1 of the PWM range used to grasp
+    :param gripper_pressure_lower_limit: PWM at pressure 0 (enough to overcome friction)
+    :param gripper_pressure_upper_limit: PWM at pressure 1 (below servo overload)
+    """
+
+    def __init__(self, core: InterbotixRobotXSCore, gripper_name: str = 'gripper',
+                 gripper_pressure: float = 0.5, gripper_pressure_lower_limit: int = 150,
+                 gripper_pressure_upper_limit: int = 350) -> None:
+        self.core = core
+        spec = core.model.gripper
+        if spec is None or spec.joint != gripper_name:
+            raise InterbotixException(
+                f"Robot model '{core.robot_model}' has no gripper named '{gripper_name}'"
+                + (f" (its gripper is '{spec.joint}')." if spec is not None else '.'))
+        self.gripper_name = gripper_name
+        self.spec = spec
+        self.gripper_pressure_lower_limit = gripper_pressure_lower_limit
+        self.gripper_pressure_upper_limit = gripper_pressure_upper_limit
+        self.gripper_value = 0.0
+        self.set_pressure(gripper_pressure)
+        self.gripper_moving = False
+        self.gripper_command = 0.0
+        self.gripper_info = core.robot_get_robot_info('single', gripper_name)
+        if self.gripper_info.mode not in ('current', 'pwm'):
+            core.get_node().logwarn(
+                f"Motor '{gripper_name}' operating mode not set to 'pwm' or 'current'.")
+        self.left_finger_index = core.js_index_map.get(spec.fingers[0])
+        if self.left_finger_index is None:
+            raise InterbotixException(
+                f"sim_driver publishes no '{spec.fingers[0]}' in its joint states "
+                f'({list(core.js_index_map)}): cannot drive the gripper.')
+        self.left_finger_lower_limit = float(self.gripper_info.joint_lower_limits[0])
+        self.left_finger_upper_limit = float(self.gripper_info.joint_upper_limits[0])
+        self.tmr_gripper_state = core.get_node().create_timer(
+            0.02, self.gripper_state, callback_group=core._cbg)
+        core.get_node().loginfo(f'\n\tGripper Name: {self.gripper_name}\n\tGripper Pressure: '
+                                f'{self.gripper_pressure * 100:.1f}%')
+        core.get_node().loginfo('Initialized InterbotixGripperXSInterface!')
+
+    def gripper_state(self) -> None:
+        """Stop the PWM drive once the fingers reach the limit they were driven to (50 Hz)."""
+        if not self.gripper_moving or self.core._torn_down:
+            return
+        try:
+            pos = self.get_finger_position()
+        except InterbotixException:
+            return
+        if (self.gripper_command > 0 and
+                pos >= self.left_finger_upper_limit - FINGER_TOLERANCE) or \
+                (self.gripper_command < 0 and
+                 pos <= self.left_finger_lower_limit + FINGER_TOLERANCE):
+            self.core.publish_setpoints([self.gripper_name], efforts=[0.0])
+            self.gripper_command = 0.0
+            self.gripper_moving = False
+
+    def gripper_controller(self, effort: float, delay: float) -> None:
+        """
+        Drive the gripper with a signed PWM ``effort`` (> 0 opens), then wait ``delay`` [s].
+
+        Nothing is sent when the fingers already are at that side's limit.
+        """
+        pos = self.get_finger_position()
+        if (effort > 0 and pos < self.left_finger_upper_limit - FINGER_TOLERANCE) or \
+                (effort < 0 and pos > self.left_finger_lower_limit + FINGER_TOLERANCE):
+            self.gripper_command = float(effort)
+            self.core.publish_setpoints([self.gripper_name], efforts=[pwm_to_effort(effort)])
+            self.gripper_moving = True
+            self.core.sleep(delay)
+
+    def set_pressure(self, pressure: float) -> None:
+        """Set the grasp pressure (0..1, clipped) used by the next release()/grasp()."""
+        p = float(pressure)
+        if not 0.0 <= p <= 1.0:
+            self.core.get_node().logwarn(f'gripper_pressure {p} outside [0, 1]; clipped.')
+            p = min(1.0, max(0.0, p))
+        self.gripper_pressure = p
+        self.gripper_value = self.gripper_pressure_lower_limit + p * (
+            self.gripper_pressure_upper_limit - self.gripper_pressure_lower_limit)
+
+    def release(self, delay: float = 1.0) -> None:
+        """Open the gripper (PWM +gripper_value), then wait ``delay`` [s]."""
+        self.gripper_controller(self.gripper_value, delay)
+
+    def grasp(self, delay: float = 1.0) -> None:
+        """Close the gripper (PWM -gripper_value), then wait ``delay`` [s]."""
+        self.gripper_controller(-self.gripper_value, delay)
+
+    def open(self, delay: float = 1.0) -> None:  # noqa: A003 - ROS 1 API name
+        """ROS 1 name of :meth:`release`."""
+        self.release(delay)
+
+    def close(self, delay: float = 1.0) -> None:
+        """ROS 1 name of :meth:`grasp`."""
+        self.grasp(delay)
+
+    def get_gripper_position(self) -> float:
+        """Return the gripper servo angle [rad]."""
+        return float(self.core.joint_positions([self.gripper_name])[0])
+
+    def get_gripper_velocity(self) -> float:
+        """Return the gripper servo velocity [rad/s]."""
+        return float(self.core._joint_field([self.gripper_name], 'velocity')[0])
+
+    def get_gripper_effort(self) -> float:
+        """Return the gripper servo effort [N*m] (Interbotix: mA or load)."""
+        return float(self.core._joint_field([self.gripper_name], 'effort')[0])
+
+    def get_finger_position(self) -> float:
+        """Return the left finger position [m] from the fingers link."""
+        return float(self.core.joint_positions([self.spec.fingers[0]])[0])
+
+    def get_finger_width(self) -> Optional[float]:
+        """Return the distance between the fingers [m] (px100_control extension)."""
+        left, right = self.core.joint_positions(list(self.spec.fingers[:2]))
+        return float(left - right)

@@ -1,0 +1,261 @@
+"""
+Lifecycle of the Interbotix-compatible client: one global node spun in a background thread.
+
+Mirrors ``interbotix_common_modules.common_robot.robot`` (humble/jazzy): a global
+:class:`InterbotixRobotNode` named ``interbotix_robot_manipulation``, :func:`robot_startup`
+(spin it in a daemon thread with a MultiThreadedExecutor) and :func:`robot_shutdown` (stop,
+destroy, ``rclpy`` shutdown).
+
+Differences from Interbotix (documented, on purpose):
+
+- ROS 1 style scripts never call ``robot_startup()``. Here the node starts spinning as soon as a
+  robot is constructed (:func:`ensure_spinning`), so such scripts work unchanged; calling
+  ``robot_startup()`` afterwards only marks the startup as requested (a second call still raises
+  ``InterbotixException('Startup has already been requested.')``).
+- ``robot_shutdown()`` also stops the nodes that an in-process bringup started
+  (``bringup=True`` / ``PX100_BRINGUP=1``), is safe to call twice, and resets the module so a new
+  robot can be constructed afterwards in the same process. It also runs at interpreter exit for
+  scripts that never call it.
+"""
+import atexit
+import threading
+from typing import Optional
+
+import rclpy
+from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+
+
+class InterbotixException(Exception):
+    """Raised by the client on errors that a script cannot recover from (e.g. missing nodes)."""
+
+
+class InterbotixRobotNode(Node):
+    """The client's ROS node (default name ``interbotix_robot_manipulation``)."""
+
+    def __init__(self, node_name: str = 'interbotix_robot_manipulation',
+                 namespace: Optional[str] = None, *args, **kwargs) -> None:
+        self.node_name = node_name
+        self.namespace = namespace
+        super().__init__(node_name, *args, namespace=namespace, **kwargs)
+        self.get_logger().info('Initialized InterbotixRobotNode!')
+
+    def wait_until_future_complete(self, future, timeout_sec: Optional[float] = None) -> None:
+        """
+        Block until ``future`` is done or ``timeout_sec`` [s] passed (None or < 0: forever).
+
+        While the node spins in the background this polls at 20 Hz; otherwise it spins the node.
+        """
+        if not interbotix_is_up():
+            rclpy.spin_until_future_complete(self, future, timeout_sec=timeout_sec)
+            return
+        import time
+        start = time.monotonic()
+        while not future.done():
+            if timeout_sec is not None and timeout_sec >= 0 and \
+                    time.monotonic() - start >= timeout_sec:
+                return
+            time.sleep(0.05)
+
+    def logdebug(self, message: str, **kwargs):
+        """Log at DEBUG."""
+        self.get_logger().debug(message, **kwargs)
+
+    def loginfo(self, message: str, **kwargs):
+        """Log at INFO."""
+        self.get_logger().info(message, **kwargs)
+
+    def logwarn(self, message: str, **kwargs):
+        """Log at WARN."""
+        self.get_logger().warning(message, **kwargs)
+
+    def logerror(self, message: str, **kwargs):
+        """Log at ERROR."""
+        self.get_logger().error(message, **kwargs)
+
+    def logfatal(self, message: str, **kwargs):
+        """Log at FATAL."""
+        self.get_logger().fatal(message, **kwargs)
+
+    def sleep_for(self, seconds: float) -> None:
+        """Sleep ``seconds`` of the node's clock (wall time unless use_sim_time)."""
+        import time
+        if seconds > 0:
+            clock = self.get_clock()
+            if clock.clock_type == rclpy.clock.ClockType.ROS_TIME and \
+                    clock.ros_time_is_active:
+                clock.sleep_for(Duration(seconds=seconds))
+            else:
+                time.sleep(seconds)
+
+
+class _Runtime:
+    """Module state: the global node, its executor thread, and the in-process bringup."""
+
+    def __init__(self):
+        self.lock = threading.RLock()
+        self.node: Optional[Node] = None
+        self.owns_context = False
+        self.executor: Optional[MultiThreadedExecutor] = None
+        self.thread: Optional[threading.Thread] = None
+        self.spun_nodes = []
+        self.startup_requested = False
+        self.bringup = None  # px100_control.client.inprocess.InProcessBringup
+        self.robots = []
+
+
+_RT = _Runtime()
+
+
+def create_interbotix_global_node(node_name: str = 'interbotix_robot_manipulation',
+                                  namespace: Optional[str] = None, *args,
+                                  **kwargs) -> InterbotixRobotNode:
+    """
+    Initialise rclpy (if not already) and create the global node.
+
+    :raises InterbotixException: a global node already exists
+    """
+    with _RT.lock:
+        if _RT.node is not None:
+            raise InterbotixException(
+                'Tried to create an Interbotix global node but one already exists.')
+        if not rclpy.ok():
+            rclpy.init(*args)
+            _RT.owns_context = True
+        _RT.node = InterbotixRobotNode(node_name=node_name, namespace=namespace, **kwargs)
+        return _RT.node
+
+
+def get_interbotix_global_node() -> Optional[InterbotixRobotNode]:
+    """Return the global node, or None before one was created."""
+    return _RT.node
+
+
+def interbotix_is_up() -> bool:
+    """Return True while the client's executor spins (after construction or robot_startup)."""
+    return _RT.thread is not None and _RT.thread.is_alive()
+
+
+def _spin(executor: MultiThreadedExecutor) -> None:
+    try:
+        executor.spin()
+    except (ExternalShutdownException, KeyboardInterrupt):
+        pass
+    except Exception:  # noqa: B902 - a context shut down under the executor ends the thread
+        if rclpy.ok():
+            raise
+
+
+def ensure_spinning(node: Node) -> None:
+    """
+    Spin ``node`` in the client's background executor thread (start it if needed).
+
+    Called by the robot constructor so scripts that never call robot_startup() (ROS 1 style)
+    still receive joint states and replies. A node already added to another executor by its
+    owner is left to that executor.
+    """
+    with _RT.lock:
+        if node in _RT.spun_nodes:
+            return
+        if node.executor is not None and node.executor is not _RT.executor:
+            return
+        if _RT.executor is None:
+            _RT.executor = MultiThreadedExecutor(num_threads=4, context=node.context)
+        _RT.executor.add_node(node)
+        _RT.spun_nodes.append(node)
+        if _RT.thread is None or not _RT.thread.is_alive():
+            _RT.thread = threading.Thread(target=_spin, args=(_RT.executor,),
+                                          name='interbotix_executor', daemon=True)
+            _RT.thread.start()
+
+
+def robot_startup(node: Optional[Node] = None,
+                  node_name: str = 'interbotix_robot_manipulation',
+                  namespace: Optional[str] = None) -> None:
+    """
+    Start up the Interbotix Python API: spin the (global) node in a background thread.
+
+    :param node: (optional) the node to spin; default the global node (created if missing)
+    :raises InterbotixException: startup was already requested
+    """
+    with _RT.lock:
+        if _RT.startup_requested:
+            raise InterbotixException('Startup has already been requested.')
+        if node is None:
+            node = get_interbotix_global_node()
+            if node is None:
+                node = create_interbotix_global_node(node_name=node_name, namespace=namespace)
+        _RT.startup_requested = True
+        ensure_spinning(node)
+
+
+def register_robot(robot) -> None:
+    """Remember a constructed core so robot_shutdown() can stop its timers first."""
+    with _RT.lock:
+        _RT.robots.append(robot)
+
+
+def set_bringup(bringup) -> None:
+    """Attach the in-process bringup that robot_shutdown() must stop."""
+    with _RT.lock:
+        _RT.bringup = bringup
+
+
+def get_bringup():
+    """Return the running in-process bringup (or None)."""
+    return _RT.bringup
+
+
+def robot_shutdown(node: Optional[Node] = None) -> None:
+    """
+    Stop spinning, destroy the client node(s), stop an in-process bringup, shut rclpy down.
+
+    Safe to call when nothing is up and to call twice; afterwards a new robot may be created.
+    :param node: (optional) the node to shut down; default the global node
+    """
+    with _RT.lock:
+        for robot in _RT.robots:
+            try:
+                robot._teardown()
+            except Exception:  # noqa: B902 - shutting down anyway
+                pass
+        _RT.robots = []
+        executor, thread = _RT.executor, _RT.thread
+        if executor is not None:
+            executor.shutdown(timeout_sec=2.0)
+        if thread is not None:
+            thread.join(timeout=5.0)
+        nodes = list(_RT.spun_nodes)
+        if node is not None and node not in nodes:
+            nodes.append(node)
+        if _RT.node is not None and _RT.node not in nodes:
+            nodes.append(_RT.node)
+        for n in nodes:
+            try:
+                n.destroy_node()
+            except Exception:  # noqa: B902 - already destroyed
+                pass
+        if _RT.bringup is not None:
+            _RT.bringup.stop()
+        if _RT.owns_context:
+            rclpy.try_shutdown()
+        _RT.node = None
+        _RT.owns_context = False
+        _RT.executor = None
+        _RT.thread = None
+        _RT.spun_nodes = []
+        _RT.startup_requested = False
+        _RT.bringup = None
+
+
+def _at_exit() -> None:
+    """Shut down cleanly at interpreter exit when a script never called robot_shutdown()."""
+    if _RT.node is not None or _RT.bringup is not None or _RT.thread is not None:
+        try:
+            robot_shutdown()
+        except Exception:  # noqa: B902 - interpreter is exiting
+            pass
+
+
+atexit.register(_at_exit)
