@@ -1,0 +1,567 @@
+"""
+Stress harness: the real px100 nodes as processes, a probe node that fuzzes and watches them.
+
+- :class:`Graph` starts ``sim_driver``, ``ik_service`` and ``trajectory_server`` (or any other
+  executable) as child processes, restarts the ones that died and counts the deaths.
+- :class:`Probe` is one rclpy node in its own context and executor thread. It publishes to every
+  input topic, calls every service, and watches every output: each ``joint_states`` and
+  ``commands/joint_setpoints`` message is checked (known, unique names; lengths; finite values;
+  positions within the URDF limits; setpoint velocities within the velocity limits) and the
+  receive times give publish rates. Setpoints the probe itself published (fuzz input to the
+  driver) are recognised by their serialised bytes and not counted as the nodes' output.
+- :func:`fuzz` drives one hypothesis campaign: each generated message is sent, then the harness
+  waits for the node's answer to it (ik/status by request id, a trajectory/status naming the goal,
+  the service response, or the driver's next joint_states) before the next one, so a failure is
+  pinned on the input that caused it and hypothesis can shrink it.
+
+Units: s, rad, m. Everything here talks to the nodes over DDS only (the public contract).
+"""
+from collections import defaultdict, deque
+from dataclasses import dataclass, field
+import math
+import os
+import threading
+import time
+from typing import Callable, Dict, List, Optional
+
+from action_msgs.msg import GoalStatusArray
+from action_msgs.srv import CancelGoal
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseArray, PoseStamped
+from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory
+
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                     reliability=ReliabilityPolicy.RELIABLE)
+RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+SENSOR = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def stress_size(reduced: int, full: int = 10_000) -> int:
+    """Return the campaign size: ``full`` with PX100_STRESS=full, else ``reduced``."""
+    mode = os.environ.get('PX100_STRESS', '').strip().lower()
+    if mode == 'full':
+        return full
+    if mode.isdigit():
+        return int(mode)
+    return reduced
+
+
+def full_mode() -> bool:
+    """Return True when PX100_STRESS=full."""
+    return os.environ.get('PX100_STRESS', '').strip().lower() == 'full'
+
+
+def stamp_text(stamp) -> str:
+    """Return the request/goal id text of a stamp, as the contract defines it."""
+    return f'{stamp.sec}.{stamp.nanosec:09d}'
+
+
+def short(msg, limit: int = 600) -> str:
+    """Return repr(msg) cut to limit characters (fuzzed messages can be megabytes)."""
+    text = repr(msg)
+    return text if len(text) <= limit else text[:limit] + f'... ({len(text)} chars)'
+
+
+# -- processes -------------------------------------------------------------------------------
+
+class Graph:
+    """
+    The nodes under test, one child process each; restartable.
+
+    :param factory: callable(name, *args) -> NodeProcess (the ``node_process`` fixture, or
+        :class:`px100_control.tools.processes.NodeProcess` itself)
+    """
+
+    def __init__(self, factory: Callable, args: Dict[str, List[str]] = None):
+        self.factory = factory
+        self.args = dict(args or {})
+        self.procs = {}
+        self.deaths: List[dict] = []
+        self.restarts = 0
+
+    def start(self, name: str, *args: str):
+        """Start (or restart) executable ``name``; extra args replace the remembered ones."""
+        if args:
+            self.args[name] = list(args)
+        self.procs[name] = self.factory(name, *self.args.get(name, []))
+        return self.procs[name]
+
+    def alive(self) -> Dict[str, bool]:
+        """Return {name: running}."""
+        return {n: p.alive() for n, p in self.procs.items()}
+
+    def dead(self) -> List[str]:
+        """Return the names of processes that are not running."""
+        return [n for n, up in self.alive().items() if not up]
+
+    def record_deaths(self, cause: str = '') -> List[str]:
+        """Record every dead process (name, exit code, last output, cause); return the names."""
+        names = self.dead()
+        for n in names:
+            p = self.procs[n]
+            self.deaths.append({'node': n, 'returncode': p.proc.poll(), 'cause': cause[:2000],
+                                'output_tail': p.output()[-3000:]})
+        return names
+
+    def revive(self, probe: 'Probe' = None, cause: str = '') -> List[str]:
+        """Restart every dead process (recording the death); wait for it if a probe is given."""
+        names = self.record_deaths(cause)
+        for n in names:
+            self.restarts += 1
+            self.start(n)
+        if names and probe is not None:
+            probe.wait_ready(names)
+        return names
+
+    def stop(self, name: str) -> None:
+        """Stop one process with SIGINT."""
+        self.procs[name].stop()
+
+    def stop_all(self) -> None:
+        """Stop every process with SIGINT (in reverse start order)."""
+        for p in reversed(list(self.procs.values())):
+            p.stop()
+
+
+# -- checks ----------------------------------------------------------------------------------
+
+@dataclass
+class Limits:
+    """Joint facts the monitor checks against (from the RobotModel)."""
+
+    arm: tuple
+    lower: dict
+    upper: dict
+    velocity: dict
+    known: tuple
+    fingers: dict = field(default_factory=dict)
+    gripper: Optional[str] = None
+
+    @classmethod
+    def from_model(cls, model) -> 'Limits':
+        """Build from a px100_control RobotModel."""
+        arm = tuple(model.joint_names)
+        lower = {n: float(v) for n, v in zip(arm, model.lower)}
+        upper = {n: float(v) for n, v in zip(arm, model.upper)}
+        vel = {n: float(v) for n, v in zip(arm, model.velocity_limits)}
+        known = list(arm)
+        fingers = {}
+        gripper = None
+        if model.gripper is not None:
+            g = model.gripper
+            gripper = g.joint
+            known.append(g.joint)
+            if len(g.fingers) >= 1:
+                fingers[g.fingers[0]] = (g.finger_lower, g.finger_upper)
+            if len(g.fingers) >= 2:
+                fingers[g.fingers[1]] = (-g.finger_upper, -g.finger_lower)
+            known.extend(g.fingers)
+        return cls(arm, lower, upper, vel, tuple(known), fingers, gripper)
+
+    def position_limits(self) -> dict:
+        """Return {name: (lower, upper)} of every joint that has limits."""
+        out = {n: (self.lower[n], self.upper[n]) for n in self.arm}
+        out.update(self.fingers)
+        return out
+
+    def velocity_ranges(self) -> dict:
+        """Return {name: (-v, v)}."""
+        return {n: (-v, v) for n, v in self.velocity.items()}
+
+
+def _finite(values) -> bool:
+    return all(math.isfinite(v) for v in values)
+
+
+def check_joint_message(msg: JointState, lim: Limits, *, setpoint: bool,
+                        pos_tol: float = 1e-6, vel_tol: float = 1e-6) -> List[str]:
+    """
+    Return what is wrong with a joint_states (setpoint=False) or setpoint message ([] if valid).
+
+    joint_states must name known joints once, carry one finite position per name (and finite
+    velocity/effort if any), arm and finger positions within limits. A setpoint may name a subset
+    and leave arrays empty; its positions must be within limits and its velocities within the
+    velocity limits.
+    """
+    problems = []
+    names = list(msg.name)
+    n = len(names)
+    unknown = [x for x in names if x not in lim.known]
+    if unknown:
+        problems.append(f'unknown joint names {unknown[:5]}')
+    if len(set(names)) != n:
+        problems.append(f'duplicate joint names {names[:10]}')
+    pos, vel, eff = list(msg.position), list(msg.velocity), list(msg.effort)
+    for label, arr in (('position', pos), ('velocity', vel), ('effort', eff)):
+        if arr and len(arr) != n:
+            problems.append(f'{len(arr)} {label} values for {n} names')
+        if not _finite(arr):
+            problems.append(f'non-finite {label}: {arr[:10]}')
+    if not setpoint and len(pos) != n:
+        problems.append(f'joint_states without one position per joint ({len(pos)} for {n})')
+    if problems:
+        return problems
+    limits = lim.position_limits()
+    for name, p in zip(names, pos):
+        if name in limits:
+            lo, hi = limits[name]
+            if p < lo - pos_tol or p > hi + pos_tol:
+                problems.append(f'{name} position {p:.9g} outside [{lo:.9g}, {hi:.9g}]')
+    if setpoint:
+        for name, v in zip(names, vel):
+            if name in lim.velocity and abs(v) > lim.velocity[name] * (1 + vel_tol):
+                problems.append(f'{name} velocity {v:.9g} above limit {lim.velocity[name]:.9g}')
+    return problems
+
+
+class RateMeter:
+    """Receive times [s, monotonic] of one topic; rates and gaps over a time window."""
+
+    def __init__(self, keep: int = 200_000):
+        self.times = deque(maxlen=keep)
+        self.lock = threading.Lock()
+
+    def tick(self) -> None:
+        """Record one message now."""
+        with self.lock:
+            self.times.append(time.monotonic())
+
+    def count(self) -> int:
+        """Return how many messages were seen."""
+        with self.lock:
+            return len(self.times)
+
+    def stats(self, t0: float, t1: float) -> dict:
+        """Return {'rate': Hz, 'max_gap': s, 'count': n} over [t0, t1]."""
+        with self.lock:
+            ts = [t for t in self.times if t0 <= t <= t1]
+        if not ts:
+            return {'rate': 0.0, 'max_gap': t1 - t0, 'count': 0}
+        edges = [t0] + ts + [t1]
+        gap = max(b - a for a, b in zip(edges, edges[1:]))
+        return {'rate': len(ts) / max(t1 - t0, 1e-9), 'max_gap': gap, 'count': len(ts)}
+
+
+# -- probe -----------------------------------------------------------------------------------
+
+class Probe:
+    """
+    The test's own ROS node: fuzz publisher, service caller and output monitor.
+
+    :param lim: joint facts for the checks
+    :param robot_name: namespace of the nodes' topics
+    """
+
+    NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+
+    def __init__(self, lim: Limits, robot_name: str = 'px100', node_name: str = 'stress_probe'):
+        self.lim = lim
+        self.ns = f'/{robot_name}'
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = Node(node_name, context=self.ctx)
+        self.executor = MultiThreadedExecutor(num_threads=4, context=self.ctx)
+        self.executor.add_node(self.node)
+        self.cond = threading.Condition()
+        self.own_setpoints = set()
+        self.violations: List[dict] = []
+        self.setpoints_seen = 0
+        self.joint_states_seen = 0
+        self.rates = defaultdict(RateMeter)
+        self.ik_status: Dict[str, List[DiagnosticStatus]] = defaultdict(list)
+        self.ik_solutions: Dict[str, List[JointState]] = defaultdict(list)
+        self.path_solutions: Dict[str, List[JointTrajectory]] = defaultdict(list)
+        self.goal_status: Dict[str, int] = {}
+        self.goal_history: Dict[str, List[int]] = defaultdict(list)
+        self.status_msgs = 0
+        self.status_seen_goals: Dict[str, int] = defaultdict(int)
+        self.diagnostics: List[DiagnosticStatus] = []
+        self.last_joint_state: Optional[JointState] = None
+        self._setpoint_log: Optional[list] = None
+        n = self.node
+        t = self.topic
+        n.create_subscription(JointState, t('joint_states'), self._on_joint_states, SENSOR)
+        n.create_subscription(JointState, t('commands/joint_setpoints'), self._on_setpoints,
+                              RELIABLE)
+        n.create_subscription(JointState, t('trajectory/feedback'), self._on_feedback, RELIABLE)
+        n.create_subscription(PoseStamped, t('ee_pose'), self._on_ee_pose, SENSOR)
+        n.create_subscription(GoalStatusArray, t('trajectory/status'), self._on_status, LATCHED)
+        n.create_subscription(DiagnosticStatus, t('ik/status'), self._on_ik_status, RELIABLE)
+        n.create_subscription(JointState, t('ik/solution'), self._on_ik_solution, RELIABLE)
+        n.create_subscription(JointTrajectory, t('ik/path_solution'), self._on_path_solution,
+                              RELIABLE)
+        n.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, RELIABLE)
+        self.pub_setpoints = n.create_publisher(JointState, t('commands/joint_setpoints'),
+                                                RELIABLE)
+        self.pub_ik = n.create_publisher(PoseStamped, t('ik/request'), RELIABLE)
+        self.pub_path = n.create_publisher(PoseArray, t('ik/path_request'), RELIABLE)
+        self.pub_goal = n.create_publisher(JointTrajectory, t('trajectory/goal'), RELIABLE)
+        self.cli_torque = n.create_client(SetBool, t('torque_enable'))
+        self.cli_reset = n.create_client(Trigger, t('reset'))
+        self.cli_cancel = n.create_client(CancelGoal, t('trajectory/cancel'))
+        self._param_clients = {}
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def topic(self, name: str) -> str:
+        """Return the robot topic ``/<robot_name>/<name>``."""
+        return f'{self.ns}/{name}'
+
+    def close(self) -> None:
+        """Stop the executor and shut the context down."""
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self.ctx.try_shutdown()
+        self.thread.join(timeout=5.0)
+
+    # monitor callbacks
+    def _violation(self, where: str, problems: List[str], msg) -> None:
+        with self.cond:
+            self.violations.append({'topic': where, 'problems': problems, 'message': short(msg),
+                                    'time': time.monotonic()})
+
+    def _on_joint_states(self, msg: JointState) -> None:
+        self.rates['joint_states'].tick()
+        problems = check_joint_message(msg, self.lim, setpoint=False)
+        if problems:
+            self._violation('joint_states', problems, msg)
+        with self.cond:
+            self.joint_states_seen += 1
+            self.last_joint_state = msg
+            self.cond.notify_all()
+
+    def _on_setpoints(self, msg: JointState) -> None:
+        if serialize_message(msg) in self.own_setpoints:
+            return
+        log = self._setpoint_log
+        if log is not None:
+            log.append((msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name),
+                        tuple(round(v, 12) for v in msg.position)))
+        self.rates['commands/joint_setpoints'].tick()
+        problems = check_joint_message(msg, self.lim, setpoint=True)
+        if problems:
+            self._violation('commands/joint_setpoints', problems, msg)
+        with self.cond:
+            self.setpoints_seen += 1
+
+    def _on_feedback(self, msg: JointState) -> None:
+        self.rates['trajectory/feedback'].tick()
+        problems = check_joint_message(msg, self.lim, setpoint=True)
+        if problems:
+            self._violation('trajectory/feedback', problems, msg)
+
+    def _on_ee_pose(self, msg: PoseStamped) -> None:
+        self.rates['ee_pose'].tick()
+        p, o = msg.pose.position, msg.pose.orientation
+        if not _finite([p.x, p.y, p.z, o.x, o.y, o.z, o.w]):
+            self._violation('ee_pose', ['non-finite pose'], msg)
+
+    def _on_status(self, msg: GoalStatusArray) -> None:
+        with self.cond:
+            self.status_msgs += 1
+            for s in msg.status_list:
+                gid = stamp_text(s.goal_info.stamp)
+                self.status_seen_goals[gid] = self.status_msgs
+                if self.goal_status.get(gid) != s.status:
+                    self.goal_history[gid].append(s.status)
+                self.goal_status[gid] = s.status
+            self.cond.notify_all()
+
+    def _on_ik_status(self, msg: DiagnosticStatus) -> None:
+        with self.cond:
+            self.ik_status[msg.hardware_id].append(msg)
+            self.cond.notify_all()
+
+    def _on_ik_solution(self, msg: JointState) -> None:
+        with self.cond:
+            self.ik_solutions[stamp_text(msg.header.stamp)].append(msg)
+            self.cond.notify_all()
+        pos = list(msg.position)
+        if pos and not _finite(pos):
+            self._violation('ik/solution', ['non-finite solution'], msg)
+
+    def _on_path_solution(self, msg: JointTrajectory) -> None:
+        with self.cond:
+            self.path_solutions[stamp_text(msg.header.stamp)].append(msg)
+            self.cond.notify_all()
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        with self.cond:
+            self.diagnostics.extend(msg.status)
+            del self.diagnostics[:-5000]
+            self.cond.notify_all()
+
+    # waiting
+    def wait_for(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Wait until predicate() (evaluated under the lock) is true; False on timeout."""
+        with self.cond:
+            return self.cond.wait_for(predicate, timeout)
+
+    def wait_joint_states(self, count: int = 2, timeout: float = 1.0) -> bool:
+        """Wait until ``count`` more joint_states arrived."""
+        with self.cond:
+            target = self.joint_states_seen + count
+        return self.wait_for(lambda: self.joint_states_seen >= target, timeout)
+
+    def wait_ready(self, nodes=NODES, timeout: float = 20.0) -> None:
+        """
+        Wait until the given nodes are up and matched with the probe.
+
+        :raises TimeoutError: naming what is missing
+        """
+        deadline = time.monotonic() + timeout
+        checks = {
+            'sim_driver': lambda: (self.wait_joint_states(3, 0.2)
+                                   and self.cli_torque.service_is_ready()
+                                   and self.cli_reset.service_is_ready()
+                                   and self.pub_setpoints.get_subscription_count() > 0),
+            'ik_service': lambda: (self.pub_ik.get_subscription_count() > 0
+                                   and self.pub_path.get_subscription_count() > 0),
+            'trajectory_server': lambda: (self.pub_goal.get_subscription_count() > 0
+                                          and self.cli_cancel.service_is_ready()),
+        }
+        pending = [n for n in nodes if n in checks]
+        while pending and time.monotonic() < deadline:
+            pending = [n for n in pending if not checks[n]()]
+            if pending:
+                time.sleep(0.05)
+        if pending:
+            raise TimeoutError(f'nodes not ready after {timeout} s: {pending}')
+        # discovery of the probe's subscriptions by the nodes' publishers
+        time.sleep(0.3)
+
+    # sending
+    def record_setpoints(self, on: bool) -> list:
+        """Start (on) or stop keeping the identity of every node setpoint; return the log."""
+        log = self._setpoint_log or []
+        self._setpoint_log = [] if on else None
+        return log
+
+    def publish_setpoint(self, msg: JointState) -> None:
+        """Publish a setpoint as the probe (not checked as node output)."""
+        self.own_setpoints.add(serialize_message(msg))
+        self.pub_setpoints.publish(msg)
+
+    def call(self, client, request, timeout: float = 2.0):
+        """Call a service; return the response or None on timeout."""
+        future = client.call_async(request)
+        done = threading.Event()
+        future.add_done_callback(lambda _: done.set())
+        if not done.wait(timeout):
+            client.remove_pending_request(future)
+            return None
+        return future.result()
+
+    def param_client(self, node: str, kind: str):
+        """Return a client for ``/<node>/<kind>`` (set_parameters, get_parameters, ...)."""
+        types = {'set_parameters': SetParameters, 'get_parameters': GetParameters,
+                 'list_parameters': ListParameters}
+        key = (node, kind)
+        if key not in self._param_clients:
+            self._param_clients[key] = self.node.create_client(types[kind], f'/{node}/{kind}')
+        return self._param_clients[key]
+
+    def list_parameters(self, node: str, timeout: float = 5.0) -> List[str]:
+        """Return the names of a node's parameters."""
+        cli = self.param_client(node, 'list_parameters')
+        cli.wait_for_service(timeout_sec=timeout)
+        res = self.call(cli, ListParameters.Request(), timeout)
+        return list(res.result.names) if res is not None else []
+
+    def get_parameters(self, node: str, names: List[str], timeout: float = 2.0):
+        """Return {name: ParameterValue} of a node."""
+        cli = self.param_client(node, 'get_parameters')
+        cli.wait_for_service(timeout_sec=timeout)
+        res = self.call(cli, GetParameters.Request(names=list(names)), timeout)
+        return dict(zip(names, res.values)) if res is not None else None
+
+    def new_violations(self, since: int) -> List[dict]:
+        """Return the violations recorded after index ``since``."""
+        with self.cond:
+            return self.violations[since:]
+
+
+# -- campaigns -------------------------------------------------------------------------------
+
+@dataclass
+class Campaign:
+    """Counters of one fuzz campaign (one topic or service)."""
+
+    target: str
+    tried: int = 0
+    answered: int = 0
+    unanswered: List[str] = field(default_factory=list)
+    failures: List[str] = field(default_factory=list)
+    seconds: float = 0.0
+    rates: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """Return the figures as plain data."""
+        return {'target': self.target, 'tried': self.tried, 'answered': self.answered,
+                'unanswered': len(self.unanswered), 'unanswered_examples':
+                self.unanswered[:5], 'failures': self.failures[:5], 'seconds':
+                round(self.seconds, 2), 'rates': self.rates}
+
+
+class FuzzFailure(AssertionError):
+    """A node died, stalled or let an invalid value through on a fuzzed input."""
+
+
+def fuzz(strategy, send: Callable, count: int, graph: Graph, probe: Probe, target: str,
+         *, derandomize: bool = True, shrink: bool = True) -> Campaign:
+    """
+    Run ``count`` hypothesis examples of ``strategy`` through ``send(msg) -> answered``.
+
+    After each example the processes must be alive and no new violation recorded; otherwise
+    :class:`FuzzFailure` is raised, hypothesis shrinks the input (dead nodes are restarted
+    before every example) and the minimal failing input is re-raised. Unanswered inputs (no
+    reply within the bound) are counted, not raised: the caller decides what to require.
+    """
+    from hypothesis import given, HealthCheck, Phase, settings
+
+    camp = Campaign(target)
+    phases = (Phase.explicit, Phase.generate) + ((Phase.shrink,) if shrink else ())
+
+    @settings(max_examples=count, deadline=None, database=None, derandomize=derandomize,
+              suppress_health_check=list(HealthCheck), phases=phases, print_blob=False)
+    @given(strategy)
+    def one(msg):
+        graph.revive(probe, cause=f'died before an input to {target}')
+        mark = len(probe.violations)
+        camp.tried += 1
+        answered = send(msg)
+        if answered:
+            camp.answered += 1
+        elif answered is not None:
+            camp.unanswered.append(short(msg, 300))
+        dead = graph.dead()
+        if dead:
+            # give the process a moment to flush its traceback before recording it
+            time.sleep(0.2)
+            graph.revive(probe, cause=f'{target}: {short(msg, 1500)}')
+            raise FuzzFailure(f'{dead} died on this {target} input: {short(msg)}')
+        bad = probe.new_violations(mark)
+        if bad:
+            raise FuzzFailure(f'invalid output after this {target} input: {bad[:3]}; '
+                              f'input: {short(msg)}')
+
+    t0 = time.monotonic()
+    try:
+        one()
+    except FuzzFailure as exc:
+        camp.failures.append(str(exc))
+        raise
+    finally:
+        t1 = time.monotonic()
+        camp.seconds = t1 - t0
+        for name in ('joint_states', 'ee_pose'):
+            camp.rates[name] = probe.rates[name].stats(t0, t1)
+    return camp

@@ -1,0 +1,377 @@
+"""
+Fault and load scenarios over the real nodes; each returns its figures as a dict.
+
+The tests in this directory assert on the figures; ``benchmarks/bench_robustness.py`` runs the
+same scenarios at full size and writes them to ``benchmarks/results/robustness.json``.
+Times are wall seconds measured with ``time.monotonic()``.
+"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from typing import Dict, List, Optional
+
+from action_msgs.msg import GoalStatus
+
+from .harness import Graph, Probe, stamp_text
+from .targets import goal_works, ik_works
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def script_env() -> dict:
+    """Return the environment for helper scripts: this one, with the repo on PYTHONPATH."""
+    env = os.environ.copy()
+    env['PYTHONPATH'] = ROOT + os.pathsep + env.get('PYTHONPATH', '')
+    return env
+
+
+def run_script(name: str, *args: str) -> subprocess.Popen:
+    """Start test/stress/<name> with this interpreter; stdout piped, stderr to a log file."""
+    log = open(os.path.join(_tmp(), f'{name}.{os.getpid()}.{time.monotonic_ns()}.log'), 'w')
+    return subprocess.Popen([sys.executable, os.path.join(HERE, name), *args],
+                            stdout=subprocess.PIPE, stderr=log, text=True, env=script_env())
+
+
+def _tmp() -> str:
+    import tempfile
+    return tempfile.gettempdir()
+
+
+def _json_line(text: str) -> Optional[dict]:
+    for line in reversed(text.strip().splitlines()):
+        line = line.strip()
+        if line.startswith('{'):
+            try:
+                return json.loads(line)
+            except ValueError:
+                return None
+    return None
+
+
+def client_goal_key(bot) -> Optional[str]:
+    """Return the id of the client's last goal."""
+    last = getattr(bot.arm, '_last_goal', None)
+    if last is None:
+        return None
+    return f'{last.key[0]}.{last.key[1]:09d}'
+
+
+# -- faults ----------------------------------------------------------------------------------
+
+def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKILL,
+                               moving_time: float = 4.0, kill_after: float = 1.0) -> dict:
+    """
+    Kill sim_driver while the client waits for a long move; restart it; move again.
+
+    :return: figures: client_return_s (kill -> the blocking call returned), client_ok,
+        client_reason, abort_s (kill -> ABORTED on trajectory/status), diagnostic (the reason
+        on /diagnostics), recovered (the same client's next move SUCCEEDED), recover_s
+    """
+    arm = bot.arm
+    out = {'signal': signal.Signals(sig).name}
+    target = [0.6, 0.3, -0.3, 0.2]
+    result = {}
+
+    def move():
+        pending = bot.core.send_trajectory(arm.joint_names, [target], [moving_time])
+        result['key'] = f'{pending.key[0]}.{pending.key[1]:09d}'
+        ok, reason = bot.core.wait_for_goal(pending, moving_time + 10.0)
+        result['t_return'] = time.monotonic()
+        result['ok'], result['reason'] = ok, reason
+
+    th = threading.Thread(target=move, daemon=True)
+    th.start()
+    if not probe.wait_for(lambda: 'key' in result and probe.goal_status.get(result['key'])
+                          == GoalStatus.STATUS_EXECUTING, 5.0):
+        out['error'] = f'the client goal never ran: {result}'
+        th.join(moving_time + 12)
+        return out
+    time.sleep(kill_after)
+    t_kill = time.monotonic()
+    graph.procs['sim_driver'].signal(sig)
+    th.join(moving_time + 12.0)
+    key = result['key']
+    out['client_ok'] = result.get('ok')
+    out['client_reason'] = result.get('reason')
+    out['client_return_s'] = result['t_return'] - t_kill if 't_return' in result else None
+    aborted = probe.wait_for(lambda: probe.goal_status.get(key) in
+                             (GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED,
+                              GoalStatus.STATUS_SUCCEEDED), 10.0)
+    out['abort_s'] = time.monotonic() - t_kill if aborted else None
+    out['final_status'] = probe.goal_status.get(key)
+    out['status_history'] = probe.goal_history.get(key)
+    diags = [d for d in list(probe.diagnostics) if d.hardware_id == key]
+    out['diagnostic'] = [(int.from_bytes(d.level, 'little') if isinstance(d.level, bytes)
+                          else int(d.level), d.message) for d in diags]
+    deadline = time.monotonic() + 15.0
+    while graph.procs['sim_driver'].alive() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    out['driver_exit'] = graph.procs['sim_driver'].proc.poll()
+    # restart: the same client must work again without being re-created
+    t_restart = time.monotonic()
+    graph.start('sim_driver')
+    probe.wait_ready(['sim_driver'], timeout=30.0)
+    deadline = time.monotonic() + 10.0
+    while bot.core.joint_state_age() > 0.5 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    ok = arm.set_joint_positions([0.2, 0.0, 0.0, 0.0], moving_time=1.0, blocking=True)
+    out['recovered'] = bool(ok)
+    out['recover_s'] = time.monotonic() - t_restart
+    out['recovery_goal_status'] = arm.last_goal_status()
+    return out
+
+
+def kill_ik_service(graph: Graph, probe: Probe, bot, model, sig=signal.SIGKILL) -> dict:
+    """
+    Kill ik_service, then ask the client for IK; restart it and ask again.
+
+    :return: figures: raised (the exception text of ``core.request_ik``), request_s (how long
+        that call took), arm_ok / arm_s (``arm.set_ee_pose_matrix`` result and time),
+        recovered (a request after the restart is solved)
+    """
+    out = {'signal': signal.Signals(sig).name}
+    T = model.fk([0.3, -0.2, 0.4, 0.2])
+    graph.procs['ik_service'].signal(sig)
+    graph.procs['ik_service'].proc.wait(10.0)
+    time.sleep(0.1)
+    t0 = time.monotonic()
+    try:
+        bot.core.request_ik(T)
+        out['raised'] = None
+    except Exception as exc:  # noqa: B902 - the client's error, whatever its class
+        out['raised'] = f'{type(exc).__name__}: {exc}'
+    out['request_s'] = time.monotonic() - t0
+    t0 = time.monotonic()
+    _, ok = bot.arm.set_ee_pose_matrix(T, execute=False)
+    out['arm_ok'], out['arm_s'] = bool(ok), time.monotonic() - t0
+    t0 = time.monotonic()
+    graph.start('ik_service')
+    probe.wait_ready(['ik_service'], timeout=30.0)
+    deadline = time.monotonic() + 10.0
+    while bot.core.pub_ik.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.3)
+    _, ok = bot.arm.set_ee_pose_matrix(T, execute=False)
+    out['recovered'], out['recover_s'] = bool(ok), time.monotonic() - t0
+    return out
+
+
+def slow_subscriber(graph: Graph, probe: Probe, lim, model, mode: str,
+                    window: float = 4.0) -> dict:
+    """
+    Run a subscriber that never spins (or sleeps in callbacks) and measure the nodes meanwhile.
+
+    :return: figures: rates (joint_states, ee_pose over the window), goal ('' if a goal
+        SUCCEEDED meanwhile), ik ('' if IK answered), slow_alive
+    """
+    proc = run_script('slow_subscriber.py', '--mode', mode)
+    line = proc.stdout.readline()
+    out = {'mode': mode, 'started': line.strip() == 'ready'}
+    time.sleep(1.0)  # matched by the nodes' publishers
+    t0 = time.monotonic()
+    out['goal'] = goal_works(probe, lim, target=[0.3, -0.1, 0.2, 0.0], duration=1.0)
+    out['ik'] = ik_works(probe, model)
+    out['goal_back'] = goal_works(probe, lim, duration=1.0)
+    rest = window - (time.monotonic() - t0)
+    if rest > 0:
+        time.sleep(rest)
+    t1 = time.monotonic()
+    out['rates'] = {n: probe.rates[n].stats(t0, t1) for n in ('joint_states', 'ee_pose')}
+    out['window_s'] = t1 - t0
+    out['nodes_alive'] = graph.alive()
+    out['slow_alive'] = proc.poll() is None
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(10.0)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5.0)
+    return out
+
+
+# -- load ------------------------------------------------------------------------------------
+
+def ik_load(clients: int, count: int, timeout: float = 5.0) -> dict:
+    """
+    Run ``clients`` IK client processes, ``count`` closed-loop requests each, all at once.
+
+    :return: figures: sent, lost, mismatched, unsolved, per-worker results
+    """
+    start_at = time.time() + 4.0
+    procs = [run_script('ik_load_worker.py', '--index', str(i), '--count', str(count),
+                        '--timeout', str(timeout), '--start-at', str(start_at))
+             for i in range(clients)]
+    workers = []
+    for p in procs:
+        try:
+            stdout, _ = p.communicate(timeout=60.0 + count * timeout)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            stdout, _ = p.communicate()
+        workers.append(_json_line(stdout) or {'error': f'no result (exit {p.returncode})'})
+    total = {k: sum(w.get(k, 0) for w in workers) for k in ('sent', 'lost', 'mismatched',
+                                                            'unsolved')}
+    total['clients'] = clients
+    total['per_client'] = count
+    total['workers_failed'] = sum(1 for w in workers if 'error' in w)
+    total['seconds'] = max((w.get('seconds', 0.0) for w in workers), default=0.0)
+    total['latency_p99_ms'] = max((w.get('latency_p99_ms', 0.0) for w in workers), default=0.0)
+    total['latency_max_ms'] = max((w.get('latency_max_ms', 0.0) for w in workers), default=0.0)
+    total['errors'] = [e for w in workers for e in w.get('errors', [])][:10]
+    return total
+
+
+def read_bag_messages(bag_dir: str, topics: List[str]) -> Dict[str, list]:
+    """
+    Return {topic: [decoded message, ...]} of every MCAP file in a rosbag2 directory.
+
+    Reads with the mcap library directly (streaming, so a file without summary/footer is read
+    up to its last complete record).
+    """
+    from mcap.records import Channel, Message, Schema
+    from mcap.stream_reader import StreamReader
+    from mcap_ros2.decoder import DecoderFactory
+    out = {t: [] for t in topics}
+    files = sorted(os.path.join(bag_dir, f) for f in os.listdir(bag_dir) if f.endswith('.mcap'))
+    factory = DecoderFactory()
+    for path in files:
+        schemas, channels, decoders = {}, {}, {}
+        with open(path, 'rb') as f:
+            try:
+                for rec in StreamReader(f, skip_magic=False).records:
+                    if isinstance(rec, Schema):
+                        schemas[rec.id] = rec
+                    elif isinstance(rec, Channel):
+                        channels[rec.id] = rec
+                    elif isinstance(rec, Message):
+                        ch = channels.get(rec.channel_id)
+                        if ch is None or ch.topic not in out:
+                            continue
+                        if ch.id not in decoders:
+                            decoders[ch.id] = factory.decoder_for(ch.message_encoding,
+                                                                  schemas[ch.schema_id])
+                        out[ch.topic].append((rec.log_time, decoders[ch.id](rec.data)))
+            except Exception:  # noqa: B902 - a truncated tail ends the read, as it should
+                pass
+    return out
+
+
+def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int = 4,
+                          moves: int = 3) -> dict:
+    """
+    Record while ``scripts`` client processes drive the arm one after the other.
+
+    :return: figures: goals sent by the scripts, goals missing from the bag, setpoints the
+        probe saw and those missing from the bag, moves failed
+    """
+    topics = ['/px100/trajectory/goal', '/px100/commands/joint_setpoints',
+              '/px100/trajectory/status', '/px100/joint_states']
+    probe.record_setpoints(True)
+    rec = graph.start('record', '-o', bag_dir, *topics)
+    deadline = time.monotonic() + 20.0
+    while probe.pub_goal.get_subscription_count() < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(1.0)
+    results = []
+    for i in range(scripts):
+        p = run_script('client_script.py', '--index', str(i), '--moves', str(moves))
+        try:
+            stdout, _ = p.communicate(timeout=120.0)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            stdout, _ = p.communicate()
+        results.append(_json_line(stdout) or {'error': f'no result (exit {p.returncode})'})
+    time.sleep(1.0)
+    seen = probe.record_setpoints(False)
+    rec.stop()
+    graph.procs.pop('record', None)
+    bag = read_bag_messages(bag_dir, topics)
+    bag_goals = {stamp_text(m.header.stamp) for _, m in bag['/px100/trajectory/goal']}
+    bag_setpoints = {_setpoint_key(m) for _, m in bag['/px100/commands/joint_setpoints']}
+    goals = [g for r in results for g in r.get('goals', [])]
+    missing_goals = [g for g in goals if g not in bag_goals]
+    missing_sp = [k for k in seen if k not in bag_setpoints]
+    return {
+        'scripts': scripts, 'moves_per_script': moves,
+        'moves_succeeded': sum(r.get('succeeded', 0) for r in results),
+        'script_errors': [r.get('error') or r.get('failures') for r in results
+                          if r.get('error') or r.get('failures')],
+        'goals_sent': len(goals), 'goals_missing_in_bag': len(missing_goals),
+        'setpoints_seen': len(seen), 'setpoints_in_bag': len(bag_setpoints),
+        'setpoints_missing_in_bag': len(missing_sp),
+        'joint_states_in_bag': len(bag['/px100/joint_states']),
+        'recorder_exit': rec.returncode, 'missing_examples': (missing_goals + missing_sp)[:5],
+    }
+
+
+def _setpoint_key(msg) -> tuple:
+    return (msg.header.stamp.sec, msg.header.stamp.nanosec, tuple(msg.name),
+            tuple(round(v, 12) for v in msg.position))
+
+
+def recorder_sigkill(graph: Graph, probe: Probe, lim, bag_dir: str, run_s: float = 3.0) -> dict:
+    """
+    SIGKILL the recorder while it records; the bag must be readable up to its last chunk.
+
+    :return: figures: messages read back (streaming read and H4's reader after reindex), the
+        time between the last message recorded and the kill (what the kill lost)
+    """
+    topics = ['/px100/joint_states', '/px100/commands/joint_setpoints',
+              '/px100/trajectory/goal', '/px100/trajectory/status']
+    rec = graph.start('record', '-o', bag_dir, *topics)
+    deadline = time.monotonic() + 20.0
+    while probe.pub_goal.get_subscription_count() < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    t_start = time.time()
+    goal_works(probe, lim, target=[0.4, 0.1, 0.1, 0.0], duration=1.0)
+    rest = run_s - (time.time() - t_start)
+    if rest > 0:
+        time.sleep(rest)
+    t_kill_ns = time.time_ns()
+    rec.signal(signal.SIGKILL)
+    rec.proc.wait(5.0)
+    graph.procs.pop('record', None)
+    out = {'recorded_s': (t_kill_ns * 1e-9) - t_start}
+    files = [f for f in os.listdir(bag_dir) if f.endswith('.mcap')] if os.path.isdir(bag_dir) \
+        else []
+    out['files'] = files
+    out['bytes'] = sum(os.path.getsize(os.path.join(bag_dir, f)) for f in files)
+    msgs = read_bag_messages(bag_dir, topics)
+    js = msgs['/px100/joint_states']
+    out['stream_read_messages'] = sum(len(v) for v in msgs.values())
+    out['stream_read_joint_states'] = len(js)
+    out['lost_tail_s'] = (t_kill_ns - max(t for t, _ in js)) * 1e-9 if js else None
+    # the project's own tools: reindex, then read
+    reindex = subprocess.run([_exe('bag_reindex'), bag_dir], capture_output=True, text=True,
+                             timeout=60, env=os.environ.copy())
+    out['reindex_exit'] = reindex.returncode
+    out['reindex_output'] = (reindex.stdout + reindex.stderr)[-800:]
+    out['reader_messages'] = _project_reader_count(bag_dir)
+    return out
+
+
+def _exe(name: str) -> str:
+    from px100_control.tools.processes import executable_path
+    return executable_path(name)
+
+
+def _project_reader_count(bag_dir: str):
+    """Return how many messages px100_control's own bag reader yields (or the error text)."""
+    try:
+        from px100_control.bag import reader as bag_reader
+    except ImportError as exc:
+        return f'no reader: {exc}'
+    try:
+        for name in ('read_messages', 'iter_messages', 'messages'):
+            fn = getattr(bag_reader, name, None)
+            if fn is not None:
+                return sum(1 for _ in fn(bag_dir))
+        return 'no read function found'
+    except Exception as exc:  # noqa: B902 - report what the reader said
+        return f'{type(exc).__name__}: {exc}'

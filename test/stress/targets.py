@@ -1,0 +1,206 @@
+"""
+One fuzz target per input of the px100 nodes: its hypothesis strategy and how to send and sync.
+
+A target's ``send(msg)`` returns True when the node answered that input (the reply the contract
+promises), False when no answer came within the bound, None when the input has no answer to
+wait for. Valid requests used to prove the nodes still work afterwards live here too.
+"""
+from dataclasses import dataclass
+import math
+import time
+from typing import Callable, Dict, List
+
+from action_msgs.msg import GoalStatus
+from builtin_interfaces.msg import Duration, Time
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import SetParameters
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from . import strategies as S
+from .harness import Limits, Probe, stamp_text
+
+TERMINAL = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_CANCELED, GoalStatus.STATUS_ABORTED)
+#: request ids of the harness's own valid requests live at this sec (fuzz rarely hits it)
+PROBE_SEC = 1_234_567
+_probe_counter = [0]
+
+
+def probe_stamp() -> Time:
+    """Return a fresh stamp for a valid probe request (unique within the run)."""
+    _probe_counter[0] += 1
+    return Time(sec=PROBE_SEC, nanosec=_probe_counter[0])
+
+
+@dataclass
+class Target:
+    """A fuzzable input: name, strategy, sender, and its node."""
+
+    name: str
+    node: str
+    strategy: object
+    send: Callable
+
+
+def _count(d: Dict[str, list], key: str) -> int:
+    return len(d.get(key, ()))
+
+
+def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
+                 robot_name: str = 'px100') -> Dict[str, Target]:
+    """
+    Return every fuzz target of sim_driver, ik_service and trajectory_server.
+
+    :param params: {node: [parameter names]} for the parameter-service targets
+    """
+    limits = lim.position_limits()
+    vel = lim.velocity_ranges()
+    sent_goals: List[Time] = []
+
+    def send_setpoint(msg):
+        probe.publish_setpoint(msg)
+        return probe.wait_joint_states(2, 1.0)
+
+    def send_ik(msg):
+        key = stamp_text(msg.header.stamp)
+        with probe.cond:
+            before = _count(probe.ik_status, key)
+        probe.pub_ik.publish(msg)
+        return probe.wait_for(lambda: _count(probe.ik_status, key) > before, 3.0)
+
+    def send_path(msg):
+        key = stamp_text(msg.header.stamp)
+        with probe.cond:
+            before = _count(probe.ik_status, key) + _count(probe.path_solutions, key)
+        probe.pub_path.publish(msg)
+        bound = 3.0 + 0.01 * len(msg.poses)
+        return probe.wait_for(
+            lambda: _count(probe.ik_status, key) + _count(probe.path_solutions, key) > before,
+            bound)
+
+    def send_goal(msg):
+        key = stamp_text(msg.header.stamp)
+        with probe.cond:
+            mark = probe.status_msgs
+        probe.pub_goal.publish(msg)
+        sent_goals.append(msg.header.stamp)
+        del sent_goals[:-50]
+        return probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark, 3.0)
+
+    def send_cancel(req):
+        return probe.call(probe.cli_cancel, req, 3.0) is not None
+
+    def send_torque(req):
+        ok = probe.call(probe.cli_torque, req, 3.0) is not None
+        probe.wait_joint_states(1, 0.5)
+        return ok
+
+    def send_reset(req):
+        ok = probe.call(probe.cli_reset, req, 3.0) is not None
+        probe.wait_joint_states(1, 0.5)
+        return ok
+
+    def param_sender(node):
+        cli = probe.param_client(node, 'set_parameters')
+
+        def send(plist):
+            res = probe.call(cli, SetParameters.Request(parameters=plist), 3.0)
+            if res is None:
+                return False
+            for p, r in zip(plist, res.results):
+                v = p.value
+                bad = (v.type == ParameterType.PARAMETER_DOUBLE
+                       and not math.isfinite(v.double_value)) or (
+                    v.type == ParameterType.PARAMETER_DOUBLE_ARRAY
+                    and not all(math.isfinite(x) for x in v.double_array_value))
+                if r.successful and bad and p.name in params.get(node, ()):
+                    probe._violation(f'/{node}/set_parameters',
+                                     [f'accepted non-finite value for {p.name}'], p)
+            probe.wait_joint_states(2, 1.0)
+            return True
+        return send
+
+    targets = {
+        'commands/joint_setpoints': Target(
+            'commands/joint_setpoints', 'sim_driver',
+            S.joint_states(lim.known, limits, vel, robot_name), send_setpoint),
+        'torque_enable': Target('torque_enable', 'sim_driver', S.setbool_requests(),
+                                send_torque),
+        'reset': Target('reset', 'sim_driver', S.trigger_requests(), send_reset),
+        'ik/request': Target('ik/request', 'ik_service', S.pose_stampeds(robot_name), send_ik),
+        'ik/path_request': Target('ik/path_request', 'ik_service', S.pose_arrays(robot_name),
+                                  send_path),
+        'trajectory/goal': Target(
+            'trajectory/goal', 'trajectory_server',
+            S.joint_trajectories(lim.arm, limits, vel, robot_name), send_goal),
+        'trajectory/cancel': Target(
+            'trajectory/cancel', 'trajectory_server',
+            S.cancel_requests(known_stamps=()), send_cancel),
+    }
+    for node, names in (params or {}).items():
+        targets[f'/{node}/set_parameters'] = Target(
+            f'/{node}/set_parameters', node, S.parameter_sets(names), param_sender(node))
+    targets['_sent_goals'] = sent_goals
+    return targets
+
+
+# -- valid requests: the nodes still work ----------------------------------------------------
+
+def ik_works(probe: Probe, model, timeout: float = 3.0) -> str:
+    """Send a reachable IK request; return '' if solved, else what went wrong."""
+    from px100_control.ros.conversions import matrix_to_pose
+    q = [0.3, -0.2, 0.4, 0.2][:model.dof]
+    msg = PoseStamped()
+    msg.header.stamp = probe_stamp()
+    msg.header.frame_id = f'{probe.ns.strip("/")}/base_link'
+    msg.pose = matrix_to_pose(model.fk(q))
+    key = stamp_text(msg.header.stamp)
+    probe.pub_ik.publish(msg)
+    if not probe.wait_for(lambda: key in probe.ik_status and key in probe.ik_solutions,
+                          timeout):
+        return f'no ik/status + ik/solution for a reachable request within {timeout} s'
+    st = probe.ik_status[key][-1]
+    sol = probe.ik_solutions[key][-1]
+    if st.level != 0 or not sol.position:
+        return f'reachable request not solved: level {st.level} {st.message!r}'
+    return ''
+
+
+def goal_works(probe: Probe, lim: Limits, target=None, duration: float = 1.0,
+               timeout: float = 8.0) -> str:
+    """Send a valid one-point goal; return '' once it SUCCEEDED, else what went wrong."""
+    msg = JointTrajectory()
+    msg.header.stamp = probe_stamp()
+    msg.joint_names = list(lim.arm)
+    p = JointTrajectoryPoint()
+    p.positions = list(target) if target is not None else [0.0] * len(lim.arm)
+    p.time_from_start = Duration(sec=int(duration), nanosec=int((duration % 1) * 1e9))
+    msg.points = [p]
+    key = stamp_text(msg.header.stamp)
+    probe.pub_goal.publish(msg)
+    if not probe.wait_for(lambda: probe.goal_status.get(key) in TERMINAL, timeout):
+        return f'valid goal not finished within {timeout} s (status ' \
+               f'{probe.goal_history.get(key)})'
+    if probe.goal_status[key] != GoalStatus.STATUS_SUCCEEDED:
+        reasons = [d.message for d in probe.diagnostics if d.hardware_id == key]
+        return f'valid goal ended {probe.goal_status[key]}: {reasons}'
+    return ''
+
+
+def driver_works(probe: Probe) -> str:
+    """Torque on and reset; return '' if both answered with success and joint_states flow."""
+    r = probe.call(probe.cli_torque, SetBool.Request(data=True), 3.0)
+    if r is None or not r.success:
+        return f'torque_enable(true) failed: {r}'
+    r = probe.call(probe.cli_reset, Trigger.Request(), 3.0)
+    if r is None or not r.success:
+        return f'reset failed: {r}'
+    if not probe.wait_joint_states(10, 2.0):
+        return 'joint_states stopped'
+    return ''
+
+
+def settle(probe: Probe, seconds: float = 0.3) -> None:
+    """Let in-flight messages arrive."""
+    time.sleep(seconds)

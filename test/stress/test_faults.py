@@ -1,0 +1,97 @@
+"""
+Injected faults: nodes killed mid-work, the recorder SIGKILLed, subscribers that never read.
+
+- sim_driver killed (SIGKILL and SIGINT) while the client waits for a move: the goal ends
+  ABORTED with a reason on trajectory/status and /diagnostics, the client call returns False
+  with a clear reason, both within 2 s; sim_driver restarted: the same client moves again.
+- ik_service killed: the client's IK call fails with a message naming ik_service within a
+  bound; restarted: IK works again.
+- the recorder SIGKILLed: the bag reads back up to its last chunk.
+- a subscriber that never spins, or sleeps 1 s per callback: no node's publishing stalls.
+"""
+import signal
+
+import pytest
+
+from .harness import Graph
+from .scenarios import (kill_driver_mid_trajectory, kill_ik_service, recorder_sigkill,
+                        slow_subscriber)
+
+NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+#: the issue's bound for "the goal is ABORTED and the client call fails" [s]
+FAIL_BOUND = 2.0
+#: bound for an IK call to a dead ik_service [s] (the client's IK timeout plus margin)
+IK_BOUND = 6.5
+FIGURES = {}
+
+
+@pytest.fixture(scope='module')
+def graph(module_processes, module_probe):
+    """Start the three nodes as processes."""
+    g = Graph(module_processes)
+    for n in NODES:
+        g.start(n)
+    module_probe.wait_ready(NODES, timeout=30.0)
+    return g
+
+
+@pytest.fixture(scope='module')
+def bot(graph):
+    """One Interbotix-compatible client for the whole module (never re-created)."""
+    from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
+    b = InterbotixManipulatorXS(robot_model='px100', group_name='arm', gripper_name='gripper',
+                                connect_timeout=30.0)
+    robot_startup()
+    yield b
+    robot_shutdown()
+
+
+@pytest.mark.parametrize('sig', [signal.SIGKILL, signal.SIGINT], ids=['SIGKILL', 'SIGINT'])
+def test_kill_driver_mid_trajectory(sig, graph, module_probe, bot):
+    """The goal is ABORTED with a reason, the client fails clearly, a restart heals."""
+    from action_msgs.msg import GoalStatus
+    fig = kill_driver_mid_trajectory(graph, module_probe, bot, sig)
+    FIGURES[f'kill_driver_{fig["signal"]}'] = fig
+    assert 'error' not in fig, fig
+    assert fig['client_ok'] is False, fig
+    assert fig['client_return_s'] is not None and fig['client_return_s'] <= FAIL_BOUND, fig
+    assert 'sim_driver' in fig['client_reason'] or 'joint' in fig['client_reason'], fig
+    assert fig['final_status'] == GoalStatus.STATUS_ABORTED, fig
+    assert fig['abort_s'] is not None and fig['abort_s'] <= FAIL_BOUND, fig
+    errors = [m for level, m in fig['diagnostic'] if level == 2 and m.strip()]
+    assert errors, f'no ERROR diagnostic with a reason for the aborted goal: {fig}'
+    assert fig['recovered'], fig
+
+
+def test_kill_ik_service(graph, module_probe, bot, model):
+    """An IK call to a killed ik_service fails clearly within a bound; a restart heals."""
+    fig = kill_ik_service(graph, module_probe, bot, model)
+    FIGURES['kill_ik_service'] = fig
+    assert fig['raised'] and 'ik_service' in fig['raised'], fig
+    assert fig['request_s'] <= IK_BOUND, fig
+    assert fig['arm_ok'] is False and fig['arm_s'] <= IK_BOUND, fig
+    assert fig['recovered'], fig
+
+
+def test_recorder_sigkill_bag_readable(graph, module_probe, limits, tmp_path):
+    """A SIGKILLed recorder leaves a bag that reads back up to its last chunk."""
+    fig = recorder_sigkill(graph, module_probe, limits, str(tmp_path / 'killed_bag'))
+    FIGURES['recorder_sigkill'] = fig
+    assert fig['files'], fig
+    assert fig['stream_read_joint_states'] > 0, fig
+    assert fig['reindex_exit'] == 0, fig
+    assert isinstance(fig['reader_messages'], int), fig
+    assert fig['reader_messages'] >= fig['stream_read_messages'], fig
+
+
+@pytest.mark.parametrize('mode', ['nospin', 'sleep'])
+def test_slow_subscriber_stalls_nothing(mode, graph, module_probe, limits, model):
+    """A subscriber that never reads does not slow the nodes down."""
+    fig = slow_subscriber(graph, module_probe, limits, model, mode)
+    FIGURES[f'slow_subscriber_{mode}'] = fig
+    assert fig['started'] and fig['slow_alive'], fig
+    assert all(fig['nodes_alive'].values()), fig
+    assert fig['goal'] == '' and fig['goal_back'] == '', fig
+    assert fig['ik'] == '', fig
+    for topic, st in fig['rates'].items():
+        assert st['rate'] >= 80.0 and st['max_gap'] <= 0.5, (topic, fig)

@@ -1,0 +1,46 @@
+"""
+Load: concurrent IK clients, and client scripts in turn while a recorder runs.
+
+8 IK clients (processes) x 100 requests (PX100_STRESS=full: x 1,000) with zero lost or
+mismatched replies; 4 client scripts driving the arm in turn while a recorder runs, with every
+goal and setpoint they caused found in the bag.
+"""
+import pytest
+
+from .harness import Graph, stress_size
+from .scenarios import ik_load, scripts_with_recorder
+
+NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+
+
+@pytest.fixture(scope='module')
+def graph(module_processes, module_probe):
+    """Start the three nodes as processes."""
+    g = Graph(module_processes)
+    for n in NODES:
+        g.start(n)
+    module_probe.wait_ready(NODES, timeout=30.0)
+    yield g
+    assert not g.dead(), f'nodes died under load: {g.dead()}'
+
+
+def test_ik_load_no_lost_or_mismatched_replies(graph):
+    """8 clients x N closed-loop IK requests: every reply arrives and answers its request."""
+    fig = ik_load(8, stress_size(100, 1000))
+    assert fig['workers_failed'] == 0, fig
+    assert fig['sent'] == 8 * fig['per_client'], fig
+    assert fig['lost'] == 0, fig
+    assert fig['mismatched'] == 0, fig
+    assert fig['unsolved'] == 0, fig
+
+
+def test_scripts_in_turn_with_recorder(graph, module_probe, tmp_path):
+    """4 client scripts drive the arm one after another; the bag has every goal and setpoint."""
+    fig = scripts_with_recorder(graph, module_probe, str(tmp_path / 'bag'), scripts=4,
+                                moves=stress_size(3, 10))
+    assert not fig['script_errors'], fig
+    assert fig['moves_succeeded'] == 4 * fig['moves_per_script'], fig
+    assert fig['goals_sent'] == fig['moves_succeeded'], fig
+    assert fig['goals_missing_in_bag'] == 0, fig
+    assert fig['setpoints_seen'] > 0, fig
+    assert fig['setpoints_missing_in_bag'] == 0, fig
