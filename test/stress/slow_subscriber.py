@@ -1,9 +1,10 @@
 """
 A badly behaved subscriber, run as a process.
 
-It subscribes to every output of the px100 nodes with RELIABLE, deep-queue QoS and then either never spins (``--mode nospin``) or spins but sleeps
-``--sleep`` s in every callback (``--mode sleep``). The nodes must not stall because of it.
-Prints ``ready`` once its subscriptions exist. Usage: ``python slow_subscriber.py --mode nospin``.
+It subscribes to every output of the px100 nodes with RELIABLE, deep-queue QoS and then either
+never spins (``--mode nospin``) or spins but sleeps ``--sleep`` s in every callback
+(``--mode sleep``). The nodes must not stall because of it. Prints ``ready`` once its
+subscriptions exist. Usage: ``python slow_subscriber.py --mode nospin``.
 """
 import argparse
 import sys
