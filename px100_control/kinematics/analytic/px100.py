@@ -1,0 +1,473 @@
+"""
+Closed-form IK of PincherX-100-geometry arms: a waist about a vertical axis, then three parallel.
+
+pitch joints (shoulder, elbow, wrist_angle) whose axes are perpendicular to the waist axis.
+
+The geometry (link lengths, angular offsets, axis signs) is derived from the model's ``S_list``
+and ``M``, so any arm of this family works (px100, mobile_px100, a DH-built px100, ...).
+Seed 000 section III: the waist takes the target azimuth ``a`` or ``a + pi``; the planar
+shoulder/elbow pair has two elbow signs; the wrist closes the pitch. Seed 001 solves the same
+arm from a full 4x4 pose (waist from the orientation).
+
+Pitch convention: the 'sxyz' pitch of the end-effector with yaw forced to the target azimuth
+(Interbotix ``set_ee_pose_components``), i.e. the angle of the tool x axis below the horizontal,
+measured from the outward (base -> target) direction. Both waist branches realise the same tool
+x axis at a given pitch (the back branch, reaching over the top, has its roll flipped by pi).
+Units: m, rad.
+"""
+import functools
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from px100_control.errors import RobotModelError
+
+#: candidates() returns every closed-form solution: solve_ik needs no iterative fallback.
+complete = True
+
+_TWO_PI = 2.0 * math.pi
+_REACH_EPS = 1e-12          # relative slack on |cos(elbow)| <= 1 (straight-arm rounding)
+_POSITION_GRID = 48         # pitch samples per branch in 'position' mode (refined by solve.py)
+
+
+@dataclass(frozen=True)
+class Px100Geometry:
+    """
+    Planar parameters of a px100-family arm, derived from (S_list, M).
+
+    The arm frame F has z along the waist axis and y along the shoulder axis (origin on the waist
+    axis). Arm-plane coordinates are (u, v) = (x_F, -z_F), in which a positive rotation about
+    +y_F is counter-clockwise. ``signs`` maps plane angles to joint angles (theta = sign * phi).
+    """
+
+    R_F: np.ndarray            # (3, 3) columns x_F, y_F, z_F in the base frame
+    origin: np.ndarray         # (3,) a point on the waist axis [m]
+    frame_is_base: bool        # R_F = I and origin = 0 (fast path)
+    signs: Tuple[float, float, float, float]
+    u2: float                  # shoulder axis in the plane [m]
+    v2: float
+    Lr: float                  # shoulder -> elbow [m] and its angle at q = 0 [rad]
+    g1: float
+    L3: float                  # elbow -> wrist [m], angle
+    g2: float
+    L4: float                  # wrist -> end effector [m], angle
+    g3: float
+    mu: float                  # elevation of the tool x axis at q = 0 [rad]
+    R_M_F: np.ndarray          # (3, 3) tool orientation at q = 0 in F
+    lower: Tuple[float, ...]
+    upper: Tuple[float, ...]
+
+    def to_arm_frame(self, p) -> Tuple[float, float, float]:
+        """Return the base-frame point p [m] in arm-frame coordinates (x_F, y_F, z_F)."""
+        if self.frame_is_base:
+            return float(p[0]), float(p[1]), float(p[2])
+        P = self.R_F.T @ (np.asarray(p, dtype=float) - self.origin)
+        return float(P[0]), float(P[1]), float(P[2])
+
+
+def _wrap(a: float) -> float:
+    """Return a wrapped to [-pi, pi)."""
+    return (a + math.pi) % _TWO_PI - math.pi
+
+
+@functools.lru_cache(maxsize=64)
+def geometry(model) -> Px100Geometry:
+    """
+    Return the planar geometry of a px100-family model (cached per model).
+
+    :raises RobotModelError: if the model is not a waist + three parallel pitch joints arm
+    """
+    S = np.asarray(model.S_list, dtype=float)
+    if S.shape != (6, 4) or any(t != 'revolute' for t in model.joint_types):
+        raise RobotModelError(f"'{model.name}' is not a 4-revolute-joint arm; the px100 "
+                              'solver does not apply')
+    w, v = S[:3], S[3:]
+    z, y = w[:, 0], w[:, 1]
+    if abs(z @ y) > 1e-9:
+        raise RobotModelError(f"'{model.name}': shoulder axis not perpendicular to the waist")
+    for i in (2, 3):
+        if np.linalg.norm(np.cross(w[:, i], y)) > 1e-9:
+            raise RobotModelError(f"'{model.name}': joint {i + 1} axis not parallel to the "
+                                  'shoulder axis')
+    x = np.cross(y, z)
+    R_F = np.column_stack([x, y, z])
+    origin = np.cross(z, v[:, 0])
+
+    def plane(pt):
+        P = R_F.T @ (pt - origin)
+        return P[0], -P[2], P[1]
+
+    pts = [plane(np.cross(w[:, i], v[:, i])) for i in (1, 2, 3)]
+    ue, ve, ye = plane(np.asarray(model.M, float)[:3, 3])
+    if abs(ye) > 1e-9:
+        raise RobotModelError(f"'{model.name}': the end effector is {ye:.4g} m off the arm "
+                              'plane (lateral offset not supported)')
+    (u2, v2, _), (u3, v3, _), (u4, v4, _) = pts
+    R_M_F = R_F.T @ np.asarray(model.M, float)[:3, :3]
+    xm = R_M_F[:, 0]
+    signs = (1.0, 1.0, float(np.sign(w[:, 2] @ y)), float(np.sign(w[:, 3] @ y)))
+    frame_is_base = bool(np.allclose(R_F, np.eye(3), atol=1e-15)
+                         and np.allclose(origin, 0.0, atol=1e-15))
+    return Px100Geometry(
+        R_F=R_F, origin=origin, frame_is_base=frame_is_base, signs=signs,
+        u2=float(u2), v2=float(v2),
+        Lr=float(math.hypot(u3 - u2, v3 - v2)), g1=float(math.atan2(v3 - v2, u3 - u2)),
+        L3=float(math.hypot(u4 - u3, v4 - v3)), g2=float(math.atan2(v4 - v3, u4 - u3)),
+        L4=float(math.hypot(ue - u4, ve - v4)), g3=float(math.atan2(ve - v4, ue - u4)),
+        mu=float(math.atan2(-xm[2], xm[0])), R_M_F=R_M_F,
+        lower=tuple(float(v) for v in model.lower), upper=tuple(float(v) for v in model.upper))
+
+
+# ---------------------------------------------------------------------------------------------
+# scalar core (math module only: this is the fast single-solve path)
+# ---------------------------------------------------------------------------------------------
+
+def _waist_values(g: Px100Geometry, t: float, out: list) -> None:
+    """Append t wrapped to [-pi, pi) and its +-2 pi copies that fit the waist limits."""
+    t = _wrap(t)
+    out.append(t)
+    if t + _TWO_PI <= g.upper[0] + 1e-9:
+        out.append(t + _TWO_PI)
+    if t - _TWO_PI >= g.lower[0] - 1e-9:
+        out.append(t - _TWO_PI)
+
+
+def _planar(g: Px100Geometry, t1: float, phi: float, P0: float, P1: float, P2: float,
+            out: list) -> None:
+    """Append the (<= 2) solutions with waist t1 and plane pitch sum phi; target P in F."""
+    u = P0 * math.cos(t1) + P1 * math.sin(t1)
+    a3 = phi + g.g3
+    wu = u - g.L4 * math.cos(a3) - g.u2
+    wv = -P2 - g.L4 * math.sin(a3) - g.v2
+    Lr, L3 = g.Lr, g.L3
+    c = (wu * wu + wv * wv - Lr * Lr - L3 * L3) / (2.0 * Lr * L3)
+    if c > 1.0:
+        if c > 1.0 + _REACH_EPS:
+            return
+        c = 1.0
+    elif c < -1.0:
+        if c < -1.0 - _REACH_EPS:
+            return
+        c = -1.0
+    s = math.sqrt(1.0 - c * c)
+    base = math.atan2(wv, wu)
+    k = math.atan2(L3 * s, Lr + L3 * c)
+    el = math.atan2(s, c)
+    _, _, s3, s4 = g.signs
+    for sgn in ((1.0, -1.0) if s > 0.0 else (1.0,)):
+        p2 = base - sgn * k - g.g1
+        p3 = sgn * el - g.g2 + g.g1
+        p4 = phi - p2 - p3
+        out.append((t1, _wrap(p2), _wrap(s3 * p3), _wrap(s4 * p4)))
+
+
+def _pitch_branches(g: Px100Geometry, P0: float, P1: float, pitch: float,
+                    azimuth: Optional[float] = None):
+    """Yield (waist, plane pitch sum) for the front and back branches of an (x, y, pitch)."""
+    a = math.atan2(P1, P0) if azimuth is None else azimuth
+    yield a, pitch - g.mu
+    yield a + math.pi, math.pi - pitch - g.mu
+
+
+def solve_xyz_pitch(g: Px100Geometry, x: float, y: float, z: float, pitch: float,
+                    azimuth: Optional[float] = None) -> List[tuple]:
+    """
+    Return every closed-form solution (4-tuples, no limit check) for a position and pitch.
+
+    :param x, y, z: end-effector position in the base frame [m]
+    :param pitch: tool pitch [rad], positive down (Interbotix convention; see module doc)
+    :param azimuth: waist direction to use when the target is on the waist axis (default atan2)
+    """
+    P0, P1, P2 = g.to_arm_frame((x, y, z))
+    if azimuth is None and P0 * P0 + P1 * P1 < 1e-24:
+        azimuth = 0.0
+    out: list = []
+    for t, phi in _pitch_branches(g, P0, P1, pitch, azimuth):
+        waists: list = []
+        _waist_values(g, t, waists)
+        for t1 in waists:
+            _planar(g, t1, phi, P0, P1, P2, out)
+    return out
+
+
+def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
+                 q_seed: Optional[Sequence[float]] = None, check_limits: bool = True,
+                 tol: float = 1e-9) -> List[tuple]:
+    """
+    Return the in-limit solutions for (x, y, z [m], pitch [rad]), closest to q_seed first.
+
+    The fast scalar path (plain floats, no numpy): the seed 000 cost function (Euclidean
+    distance to q_seed, default model.home) orders the solutions. Input must be finite.
+    """
+    g = geometry(model)
+    sols = solve_xyz_pitch(g, x, y, z, pitch)
+    if check_limits:
+        lo, hi = g.lower, g.upper
+        sols = [q for q in sols if lo[0] - tol <= q[0] <= hi[0] + tol
+                and lo[1] - tol <= q[1] <= hi[1] + tol and lo[2] - tol <= q[2] <= hi[2] + tol
+                and lo[3] - tol <= q[3] <= hi[3] + tol]
+    if len(sols) > 1:
+        s = model.home if q_seed is None else q_seed
+        s0, s1, s2, s3 = float(s[0]), float(s[1]), float(s[2]), float(s[3])
+        sols.sort(key=lambda q: (q[0] - s0) ** 2 + (q[1] - s1) ** 2 + (q[2] - s2) ** 2
+                  + (q[3] - s3) ** 2)
+    return sols
+
+
+# ---------------------------------------------------------------------------------------------
+# plug-in contract (see kinematics/analytic/__init__.py)
+# ---------------------------------------------------------------------------------------------
+
+def _tool_plane_rotation(g: Px100Geometry, T: np.ndarray) -> np.ndarray:
+    """Return G = R_F^T R_target R_M_F^T, equal to Rz(waist) Ry(pitch sum) when reachable."""
+    return g.R_F.T @ T[:3, :3] @ g.R_M_F.T
+
+
+def target_pitch(g: Px100Geometry, T: np.ndarray) -> Tuple[float, float]:
+    """
+    Return (azimuth, pitch) [rad] of a (4, 4) target: waist direction and tool x elevation.
+
+    The azimuth is atan2 of the target position about the waist axis; on the axis it comes from
+    the tool x axis (or 0). The pitch is measured from the outward direction (module doc).
+    """
+    P0, P1, _ = g.to_arm_frame(T[:3, 3])
+    X = g.R_F.T @ T[:3, 0]
+    if P0 * P0 + P1 * P1 > 1e-24:
+        a = math.atan2(P1, P0)
+    elif X[0] * X[0] + X[1] * X[1] > 1e-24:
+        a = math.atan2(X[1], X[0])
+    else:
+        a = 0.0
+    pitch = math.atan2(-X[2], math.cos(a) * X[0] + math.sin(a) * X[1])
+    return a, pitch
+
+
+def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
+    """
+    Return every closed-form candidate (k, 4) for a (4, 4) target, before limit filtering.
+
+    'full': waist from the tool orientation (seed 001), two elbow signs; 'pitch': position and
+    tool x axis (waist a and a + pi, two elbows); 'position': both waists and elbows over a grid
+    of pitches (solve_ik refines them with the null-space task toward q_nominal).
+    """
+    g = geometry(model)
+    T = np.asarray(T_target, dtype=float)
+    P0, P1, P2 = g.to_arm_frame(T[:3, 3])
+    out: list = []
+    if mode == 'full':
+        G = _tool_plane_rotation(g, T)
+        if G[0, 1] * G[0, 1] + G[1, 1] * G[1, 1] > 1e-24:
+            t = math.atan2(-G[0, 1], G[1, 1])
+        else:
+            t = math.atan2(P1, P0)
+        phi = math.atan2(-G[2, 0], G[2, 2])
+        waists: list = []
+        _waist_values(g, t, waists)
+        for t1 in waists:
+            _planar(g, t1, phi, P0, P1, P2, out)
+    elif mode == 'pitch':
+        a, pitch = target_pitch(g, T)
+        for t, phi in _pitch_branches(g, P0, P1, pitch, a):
+            waists = []
+            _waist_values(g, t, waists)
+            for t1 in waists:
+                _planar(g, t1, phi, P0, P1, P2, out)
+    elif mode == 'position':
+        a = math.atan2(P1, P0) if P0 * P0 + P1 * P1 > 1e-24 else 0.0
+        for k in range(_POSITION_GRID):
+            pitch = -math.pi + _TWO_PI * k / _POSITION_GRID
+            for t, phi in _pitch_branches(g, P0, P1, pitch, a):
+                _planar(g, _wrap(t), phi, P0, P1, P2, out)
+    else:
+        raise ValueError(f'unknown IK mode {mode!r}')
+    return np.array(out, dtype=float).reshape(-1, 4)
+
+
+def _reach_interval(g: Px100Geometry) -> Tuple[float, float]:
+    return abs(g.Lr - g.L3), g.Lr + g.L3
+
+
+def reach_margin(model, p, pitch: Optional[float] = None) -> float:
+    """
+    Return the signed reach margin [m] of a position (and optional pitch), joint limits ignored.
+
+    Positive inside the workspace; negative: how far outside. With a pitch, the wrist centre must
+    lie in the annulus |Lr - L3| <= d <= Lr + L3 around the shoulder (seed 000 torus bounds);
+    without, the end effector must lie within [.., Lr + L3 + L4] of the shoulder. The best of the
+    front and back waist branches counts.
+    """
+    g = geometry(model)
+    P0, P1, P2 = g.to_arm_frame(p)
+    r = math.hypot(P0, P1)
+    lo, hi = _reach_interval(g)
+    best = -math.inf
+    for sign in (1.0, -1.0):
+        u, v = sign * r, -P2
+        if pitch is None:
+            rho = math.hypot(u - g.u2, v - g.v2)
+            margin = min(hi - abs(rho - g.L4), rho + g.L4 - lo)
+        else:
+            phi = (pitch - g.mu) if sign > 0 else (math.pi - pitch - g.mu)
+            a3 = phi + g.g3
+            d = math.hypot(u - g.L4 * math.cos(a3) - g.u2, v - g.L4 * math.sin(a3) - g.v2)
+            margin = min(hi - d, d - lo)
+        best = max(best, margin)
+    return best
+
+
+def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
+    """Explain in words why a target has no closed-form candidate ('' if it has some)."""
+    g = geometry(model)
+    T = np.asarray(T_target, dtype=float)
+    if mode == 'full':
+        G = _tool_plane_rotation(g, T)
+        roll = math.asin(max(-1.0, min(1.0, G[2, 1])))
+        if abs(roll) > 1e-9:
+            return (f'orientation not reachable by a 4-DOF arm: the tool is rolled by '
+                    f'{roll:.4g} rad (its y axis must stay horizontal)')
+        t = math.atan2(-G[0, 1], G[1, 1])
+        P0, P1, _ = g.to_arm_frame(T[:3, 3])
+        off = -P0 * math.sin(t) + P1 * math.cos(t)
+        if abs(off) > 1e-9:
+            return (f'pose not reachable by a 4-DOF arm: the position is {abs(off):.4g} m off '
+                    f'the vertical plane of the tool heading {t:.4g} rad')
+        phi = math.atan2(-G[2, 0], G[2, 2])
+        pitch = _wrap(phi + g.mu)
+        margin = reach_margin(model, T[:3, 3], pitch)
+        return _reach_words(margin, f' at pitch {pitch:.4g} rad')
+    if mode == 'pitch':
+        _, pitch = target_pitch(g, T)
+        return _reach_words(reach_margin(model, T[:3, 3], pitch), f' at pitch {pitch:.4g} rad')
+    return _reach_words(reach_margin(model, T[:3, 3]), '')
+
+
+def _reach_words(margin: float, suffix: str) -> str:
+    if margin >= 0.0:
+        return ''
+    return f'target is {-margin:.4g} m beyond reach{suffix}'
+
+
+# ---------------------------------------------------------------------------------------------
+# vectorised batch (numpy): every branch for N targets at once
+# ---------------------------------------------------------------------------------------------
+
+def _wrap_np(a: np.ndarray) -> np.ndarray:
+    a += math.pi
+    np.remainder(a, _TWO_PI, out=a)
+    a -= math.pi
+    return a
+
+
+def batch_candidates(model, x, y, z, pitch) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return (Q (N, 4, 4), ok (N, 4)): the 4 branch candidates of N (x, y, z, pitch) targets.
+
+    Branch order: (front, elbow +), (front, elbow -), (back, elbow +), (back, elbow -). ``ok``
+    says the branch exists geometrically (limits not checked). Waist values are wrapped to
+    [-pi, pi). Inputs are (N,) float arrays in the base frame [m, rad].
+    """
+    g = geometry(model)
+    x, y, z, pitch = (np.asarray(a, dtype=float) for a in (x, y, z, pitch))
+    if not g.frame_is_base:
+        P = (np.stack([x, y, z], axis=-1) - g.origin) @ g.R_F
+        x, y, z = P[:, 0], P[:, 1], P[:, 2]
+    n = x.shape[0]
+    Q = np.empty((n, 4, 4))
+    ok = np.empty((n, 4), dtype=bool)
+    a = np.arctan2(y, x)
+    r = np.hypot(x, y)
+    Lr, L3, L4 = g.Lr, g.L3, g.L4
+    inv2 = 1.0 / (2.0 * Lr * L3)
+    const = Lr * Lr + L3 * L3
+    _, _, s3, s4 = g.signs
+    vz = -z - g.v2
+    for b, (u, phi, t1) in enumerate((
+            (r, pitch - g.mu, a),
+            (-r, math.pi - pitch - g.mu, _wrap_np(a + math.pi)))):
+        a3 = phi + g.g3
+        wu = u - L4 * np.cos(a3) - g.u2
+        wv = vz - L4 * np.sin(a3)
+        c = (wu * wu + wv * wv - const) * inv2
+        good = np.abs(c) <= 1.0 + _REACH_EPS
+        np.clip(c, -1.0, 1.0, out=c)
+        s = np.sqrt(1.0 - c * c)
+        base = np.arctan2(wv, wu) - g.g1
+        k = np.arctan2(L3 * s, Lr + L3 * c)
+        el = np.arccos(c)
+        for e, sgn in enumerate((1.0, -1.0)):
+            j = 2 * b + e
+            p2 = base - k if sgn > 0 else base + k
+            p3 = el - g.g2 + g.g1 if sgn > 0 else -el - g.g2 + g.g1
+            p4 = phi - p2 - p3
+            Q[:, j, 0] = t1
+            Q[:, j, 1] = _wrap_np(p2)
+            Q[:, j, 2] = _wrap_np(s3 * p3)
+            Q[:, j, 3] = _wrap_np(s4 * p4)
+            ok[:, j] = good
+    return Q, ok
+
+
+def solve_batch(model, targets, q_seed=None, check_limits: bool = True,
+                return_all: bool = False, chunk: int = 1 << 16):
+    """
+    Return (Q (N, 4), ok (N,)): the best solution of each target, vectorised.
+
+    :param targets: (N, 4, 4) poses ('pitch' semantics: position + tool pitch, yaw forced) or
+        (N, 4) rows (x, y, z, pitch) in the base frame [m, rad]
+    :param q_seed: (4,) the solutions closest to it win (default model.home)
+    :param return_all: return (Q (N, 4, 4), ok (N, 4)) with every branch instead
+    """
+    targets = np.asarray(targets, dtype=float)
+    if targets.ndim == 3:
+        rows = _pose_rows(model, targets)
+    else:
+        rows = targets
+    n = rows.shape[0]
+    seed = np.asarray(model.home if q_seed is None else q_seed, dtype=float)
+    lo = np.asarray(model.lower, float) - 1e-9
+    hi = np.asarray(model.upper, float) + 1e-9
+    if return_all:
+        Q_all = np.empty((n, 4, 4))
+        ok_all = np.empty((n, 4), dtype=bool)
+    else:
+        Q_best = np.full((n, 4), np.nan)
+        ok_best = np.zeros(n, dtype=bool)
+    for s in range(0, n, chunk):
+        e = min(n, s + chunk)
+        Q, ok = batch_candidates(model, rows[s:e, 0], rows[s:e, 1], rows[s:e, 2], rows[s:e, 3])
+        if check_limits:
+            ok &= np.all((Q >= lo) & (Q <= hi), axis=2)
+        if return_all:
+            Q_all[s:e], ok_all[s:e] = Q, ok
+            continue
+        d = Q - seed
+        cost = np.einsum('nkj,nkj->nk', d, d)
+        cost[~ok] = np.inf
+        best = np.argmin(cost, axis=1)
+        idx = np.arange(e - s)
+        Q_best[s:e] = Q[idx, best]
+        ok_best[s:e] = ok[idx, best]
+    if return_all:
+        return Q_all, ok_all
+    Q_best[~ok_best] = np.nan
+    return Q_best, ok_best
+
+
+def _pose_rows(model, T: np.ndarray) -> np.ndarray:
+    """Return (N, 4) rows (x, y, z, pitch) of (N, 4, 4) poses (pitch as in target_pitch)."""
+    g = geometry(model)
+    p = T[:, :3, 3]
+    X = T[:, :3, 0]
+    if not g.frame_is_base:
+        P = (p - g.origin) @ g.R_F
+        X = X @ g.R_F
+    else:
+        P = p
+    a = np.arctan2(P[:, 1], P[:, 0])
+    on_axis = P[:, 0] ** 2 + P[:, 1] ** 2 <= 1e-24
+    if np.any(on_axis):
+        a = np.where(on_axis, np.arctan2(X[:, 1], X[:, 0]), a)
+    pitch = np.arctan2(-X[:, 2], np.cos(a) * X[:, 0] + np.sin(a) * X[:, 1])
+    return np.column_stack([p, pitch])

@@ -1,0 +1,545 @@
+"""
+Iterative IK for any serial chain (PoE model): damped least squares and Newton-Raphson.
+
+A ``Task`` ('full' pose, 'axis' = position + tool x axis direction, or 'position'; see
+``solve.make_task``) gives an error e(q) and Jacobian J(q) in the base frame, rows
+[orientation (rad); position (m)]. Damped least squares (seed 000 eq. 3)::
+
+    q+ = q + alpha J# e + beta (I - J# J) g(q),   J# = J^T (J J^T + lambda^2 I)^-1
+
+with the secondary task g toward q_nominal ('nominal') or away from the joint limits ('limits').
+Newton-Raphson (seed 003): dq = pinv(J) e, step norm limited to 0.5 rad, then projected onto the
+joint limits. Both return an ``IkResult``.
+
+The single-configuration loops run on plain Python floats (small chains: a numpy call costs
+more than the arithmetic); ``fk_batch`` is the vectorised numpy FK for many configurations.
+Units: m, rad.
+"""
+import functools
+import math
+from operator import mul
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.se3 import log_se3
+
+Vec = List[float]
+
+
+@dataclass(frozen=True)
+class Chain:
+    """Precomputed screw data of a model (numpy arrays and plain-float tuples)."""
+
+    n: int
+    w: np.ndarray         # (n, 3) unit axes (zero rows for prismatic joints)
+    v: np.ndarray         # (n, 3)
+    M: np.ndarray         # (4, 4)
+    lower: np.ndarray
+    upper: np.ndarray
+    K: np.ndarray         # (n, 3, 3) skew(w)
+    K2: np.ndarray        # (n, 3, 3) skew(w)^2
+    Kv: np.ndarray        # (n, 3) w x v
+    K2v: np.ndarray       # (n, 3) w x (w x v)
+    py: tuple             # per joint (w, v, w x v, w x (w x v), revolute) as float tuples
+    MR: tuple             # M rotation rows
+    Mp: tuple             # M translation
+
+
+@functools.lru_cache(maxsize=64)
+def chain(model) -> Chain:
+    """Return the cached screw data of a model."""
+    S = np.asarray(model.S_list, dtype=float)
+    w, v = S[:3].T.copy(), S[3:].T.copy()
+    n = w.shape[0]
+    K = np.zeros((n, 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 0] = -w[:, 2], w[:, 1], w[:, 2]
+    K[:, 1, 2], K[:, 2, 0], K[:, 2, 1] = -w[:, 0], -w[:, 1], w[:, 0]
+    K2 = K @ K
+    Kv = np.einsum('nij,nj->ni', K, v)
+    K2v = np.einsum('nij,nj->ni', K2, v)
+    revolute = [t != 'prismatic' for t in model.joint_types]
+    py = tuple((tuple(w[i].tolist()), tuple(v[i].tolist()), tuple(Kv[i].tolist()),
+                tuple(K2v[i].tolist()), revolute[i]) for i in range(n))
+    M = np.asarray(model.M, float)
+    return Chain(n=n, w=w, v=v, M=M, lower=np.asarray(model.lower, float),
+                 upper=np.asarray(model.upper, float), K=K, K2=K2, Kv=Kv, K2v=K2v, py=py,
+                 MR=tuple(tuple(r) for r in M[:3, :3].tolist()), Mp=tuple(M[:3, 3].tolist()))
+
+
+# ---------------------------------------------------------------------------------------------
+# forward kinematics and Jacobian
+# ---------------------------------------------------------------------------------------------
+
+def fk_jacobian_py(c: Chain, q: Sequence[float]):
+    """
+    Return (R, p, Jw, Jv) at q on plain floats: pose and geometric Jacobian.
+
+    R: 3x3 nested lists, p: [x, y, z] [m]; Jw[i], Jv[i]: column i as 3-lists, the angular
+    velocity and the velocity of the end-effector origin per unit joint rate (base frame).
+    """
+    r00 = r11 = r22 = 1.0
+    r01 = r02 = r10 = r12 = r20 = r21 = 0.0
+    px = py_ = pz = 0.0
+    Jw: list = []
+    Vs: list = []
+    for (w, v, kv, k2v, rev), th in zip(c.py, q):
+        wx, wy, wz = w
+        # space-frame joint axis: omega = Rc w, v_s = Rc v + pc x omega
+        ox = r00 * wx + r01 * wy + r02 * wz
+        oy = r10 * wx + r11 * wy + r12 * wz
+        oz = r20 * wx + r21 * wy + r22 * wz
+        vx, vy, vz = v
+        ux = r00 * vx + r01 * vy + r02 * vz + py_ * oz - pz * oy
+        uy = r10 * vx + r11 * vy + r12 * vz + pz * ox - px * oz
+        uz = r20 * vx + r21 * vy + r22 * vz + px * oy - py_ * ox
+        Jw.append((ox, oy, oz))
+        Vs.append((ux, uy, uz))
+        if rev:
+            s, cc = math.sin(th), 1.0 - math.cos(th)
+            ts = th - s
+            # R_i = I + s K + cc K^2, K^2 = w w^T - I
+            a00 = 1.0 + cc * (wx * wx - 1.0)
+            a11 = 1.0 + cc * (wy * wy - 1.0)
+            a22 = 1.0 + cc * (wz * wz - 1.0)
+            a01 = cc * wx * wy - s * wz
+            a10 = cc * wx * wy + s * wz
+            a02 = cc * wx * wz + s * wy
+            a20 = cc * wx * wz - s * wy
+            a12 = cc * wy * wz - s * wx
+            a21 = cc * wy * wz + s * wx
+            tx = th * vx + cc * kv[0] + ts * k2v[0]
+            ty = th * vy + cc * kv[1] + ts * k2v[1]
+            tz = th * vz + cc * kv[2] + ts * k2v[2]
+            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
+                           r10 * tx + r11 * ty + r12 * tz + py_,
+                           r20 * tx + r21 * ty + r22 * tz + pz)
+            r00, r01, r02 = (r00 * a00 + r01 * a10 + r02 * a20, r00 * a01 + r01 * a11
+                             + r02 * a21, r00 * a02 + r01 * a12 + r02 * a22)
+            r10, r11, r12 = (r10 * a00 + r11 * a10 + r12 * a20, r10 * a01 + r11 * a11
+                             + r12 * a21, r10 * a02 + r11 * a12 + r12 * a22)
+            r20, r21, r22 = (r20 * a00 + r21 * a10 + r22 * a20, r20 * a01 + r21 * a11
+                             + r22 * a21, r20 * a02 + r21 * a12 + r22 * a22)
+        else:
+            tx, ty, tz = th * vx, th * vy, th * vz
+            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
+                           r10 * tx + r11 * ty + r12 * tz + py_,
+                           r20 * tx + r21 * ty + r22 * tz + pz)
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = c.MR
+    mx, my, mz = c.Mp
+    R = [[r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
+          r00 * m02 + r01 * m12 + r02 * m22],
+         [r10 * m00 + r11 * m10 + r12 * m20, r10 * m01 + r11 * m11 + r12 * m21,
+          r10 * m02 + r11 * m12 + r12 * m22],
+         [r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
+          r20 * m02 + r21 * m12 + r22 * m22]]
+    p = [r00 * mx + r01 * my + r02 * mz + px, r10 * mx + r11 * my + r12 * mz + py_,
+         r20 * mx + r21 * my + r22 * mz + pz]
+    ex, ey, ez = p
+    # velocity of the end-effector point: v_s + omega x p
+    Jv = [(ux + oy * ez - oz * ey, uy + oz * ex - ox * ez, uz + ox * ey - oy * ex)
+          for (ox, oy, oz), (ux, uy, uz) in zip(Jw, Vs)]
+    return R, p, Jw, Jv
+
+
+def fk_and_jacobian(c: Chain, q) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return (T (4, 4), J (6, n)) at q: pose and geometric Jacobian as numpy arrays.
+
+    J rows are [omega (rad/s); velocity of the end-effector origin (m/s)] in the base frame.
+    """
+    R, p, Jw, Jv = fk_jacobian_py(c, [float(x) for x in q])
+    T = np.array([R[0] + [p[0]], R[1] + [p[1]], R[2] + [p[2]], [0.0, 0.0, 0.0, 1.0]])
+    J = np.empty((6, c.n))
+    J[:3] = np.array(Jw).T
+    J[3:] = np.array(Jv).T
+    return T, J
+
+
+def fk_batch(c: Chain, Q: np.ndarray) -> np.ndarray:
+    """Return (k, 4, 4) end-effector poses of k configurations Q (k, n), vectorised."""
+    Q = np.asarray(Q, dtype=float)
+    k, n = Q.shape
+    s = np.sin(Q)[:, :, None, None]
+    cc = (1.0 - np.cos(Q))[:, :, None, None]
+    rev = np.array([j[4] for j in c.py], dtype=float)[None, :, None, None]
+    E = np.zeros((k, n, 4, 4))
+    E[:, :, :3, :3] = np.eye(3) + rev * (s * c.K + cc * c.K2)
+    E[:, :, :3, 3] = (Q[:, :, None] * c.v + cc[:, :, :, 0] * c.Kv
+                      + (Q[:, :, None] - s[:, :, :, 0]) * c.K2v) * rev[:, :, :, 0] + (
+        Q[:, :, None] * c.v) * (1.0 - rev[:, :, :, 0])
+    E[:, :, 3, 3] = 1.0
+    T = E[:, 0]
+    for i in range(1, n):
+        T = T @ E[:, i]
+    return T @ c.M
+
+
+# ---------------------------------------------------------------------------------------------
+# tasks
+# ---------------------------------------------------------------------------------------------
+
+def _rotation_vector(E) -> Vec:
+    """Return the rotation vector (axis * angle) of a 3x3 rotation given as nested lists."""
+    a0, a1, a2 = E[2][1] - E[1][2], E[0][2] - E[2][0], E[1][0] - E[0][1]
+    s2 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)       # 2 sin(theta)
+    cos_t = 0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0)
+    theta = math.atan2(0.5 * s2, cos_t)
+    if theta < 1e-6:
+        return [0.5 * a0, 0.5 * a1, 0.5 * a2]
+    if math.pi - theta < 1e-4:
+        # near pi: axis from the symmetric part, sign from the antisymmetric one
+        B = [[0.5 * (E[r][k] + E[k][r]) + (1.0 if r == k else 0.0) for k in range(3)]
+             for r in range(3)]
+        i = max(range(3), key=lambda k: B[k][k])
+        col = [B[0][i], B[1][i], B[2][i]]
+        norm = math.sqrt(sum(x * x for x in col))
+        axis = [x / norm for x in col]
+        if axis[0] * a0 + axis[1] * a1 + axis[2] * a2 < 0:
+            axis = [-x for x in axis]
+        return [x * theta for x in axis]
+    k = theta / s2
+    return [a0 * k, a1 * k, a2 * k]
+
+
+@dataclass
+class Task:
+    """
+    An IK task: target position ``p`` (3,) [m] and rotation ``R`` (3, 3); ``kind`` says what.
+
+    is constrained: 'full' the whole rotation, 'axis' only the tool x axis direction R[:, 0]
+    (the pitch of a <= 4-DOF arm), 'position' none.
+    """
+
+    p: np.ndarray
+    R: np.ndarray
+    kind: str
+
+    def __post_init__(self):
+        """Cache plain-float copies."""
+        self._p = [float(x) for x in self.p]
+        self._R = [[float(x) for x in row] for row in self.R]
+        self._d = [self._R[0][0], self._R[1][0], self._R[2][0]]
+
+    @property
+    def dim(self) -> int:
+        """Number of task rows."""
+        return 3 if self.kind == 'position' else 6
+
+    def pose(self) -> np.ndarray:
+        """Return the target as a (4, 4) pose."""
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = self.R, self.p
+        return T
+
+    def errors_py(self, R, p) -> Tuple[float, float]:
+        """Return (position error [m], orientation error [rad]) of a pose (nested lists)."""
+        tp = self._p
+        dp = math.sqrt((tp[0] - p[0]) ** 2 + (tp[1] - p[1]) ** 2 + (tp[2] - p[2]) ** 2)
+        if self.kind == 'position':
+            return dp, 0.0
+        if self.kind == 'axis':
+            d = self._d
+            x0, x1, x2 = R[0][0], R[1][0], R[2][0]
+            c0, c1, c2 = x1 * d[2] - x2 * d[1], x2 * d[0] - x0 * d[2], x0 * d[1] - x1 * d[0]
+            return dp, math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2),
+                                  x0 * d[0] + x1 * d[1] + x2 * d[2])
+        tR = self._R
+        # E = R^T R_t
+        E = [[R[0][i] * tR[0][j] + R[1][i] * tR[1][j] + R[2][i] * tR[2][j] for j in range(3)]
+             for i in range(3)]
+        s = 0.5 * math.sqrt((E[2][1] - E[1][2]) ** 2 + (E[0][2] - E[2][0]) ** 2
+                            + (E[1][0] - E[0][1]) ** 2)
+        return dp, math.atan2(s, 0.5 * (E[0][0] + E[1][1] + E[2][2] - 1.0))
+
+    def errors(self, T: np.ndarray) -> Tuple[float, float]:
+        """Return (position error [m], orientation error [rad]) of a (4, 4) pose."""
+        L = T[:3].tolist()
+        return self.errors_py([r[:3] for r in L], [L[0][3], L[1][3], L[2][3]])
+
+    def residual_py(self, R, p, Jw, Jv):
+        """Return (e (m,), rows (m lists of n)) of the task at a pose and Jacobian."""
+        tp = self._p
+        ep = [tp[0] - p[0], tp[1] - p[1], tp[2] - p[2]]
+        rows_v = [[col[k] for col in Jv] for k in range(3)]
+        if self.kind == 'position':
+            return ep, rows_v
+        rows_w = [[col[k] for col in Jw] for k in range(3)]
+        if self.kind == 'axis':
+            d = self._d
+            x = [R[0][0], R[1][0], R[2][0]]
+            cr = [x[1] * d[2] - x[2] * d[1], x[2] * d[0] - x[0] * d[2],
+                  x[0] * d[1] - x[1] * d[0]]
+            sn = math.sqrt(cr[0] ** 2 + cr[1] ** 2 + cr[2] ** 2)
+            dot = x[0] * d[0] + x[1] * d[1] + x[2] * d[2]
+            ang = math.atan2(sn, dot)
+            if sn > 1e-12:
+                ew = [ci * (ang / sn) for ci in cr]
+            elif dot < 0:          # opposite: turn about any axis perpendicular to x
+                perp = [0.0, x[2], -x[1]] if abs(x[0]) < 0.9 else [-x[2], 0.0, x[0]]
+                norm = math.sqrt(sum(t * t for t in perp))
+                ew = [t / norm * math.pi for t in perp]
+            else:
+                ew = [0.0, 0.0, 0.0]
+            # rotation about x does not move x: project the angular rows
+            xw = [x[0] * rows_w[0][j] + x[1] * rows_w[1][j] + x[2] * rows_w[2][j]
+                  for j in range(len(Jw))]
+            rows_w = [[rows_w[k][j] - x[k] * xw[j] for j in range(len(Jw))] for k in range(3)]
+            return ew + ep, rows_w + rows_v
+        tR = self._R
+        # rotation error in the base frame: log(R_t R^T)
+        E = [[tR[i][0] * R[j][0] + tR[i][1] * R[j][1] + tR[i][2] * R[j][2] for j in range(3)]
+             for i in range(3)]
+        return _rotation_vector(E) + ep, rows_w + rows_v
+
+
+# ---------------------------------------------------------------------------------------------
+# small dense linear algebra on lists
+# ---------------------------------------------------------------------------------------------
+
+def _dot(a, b) -> float:
+    return sum(map(mul, a, b))
+
+
+def _cholesky_solve(A, b) -> Vec:
+    """Solve A x = b for a symmetric positive-definite A (nested lists); A is overwritten."""
+    n = len(A)
+    for j in range(n):
+        Aj = A[j]
+        s = Aj[j] - _dot(Aj[:j], Aj[:j])
+        d = math.sqrt(s) if s > 0.0 else 1e-150
+        Aj[j] = d
+        for i in range(j + 1, n):
+            Ai = A[i]
+            Ai[j] = (Ai[j] - _dot(Ai[:j], Aj[:j])) / d
+    y = [0.0] * n
+    for i in range(n):
+        Ai = A[i]
+        y[i] = (b[i] - _dot(Ai[:i], y[:i])) / Ai[i]
+    x = [0.0] * n
+    for i in range(n - 1, -1, -1):
+        x[i] = (y[i] - sum(A[k][i] * x[k] for k in range(i + 1, n))) / A[i][i]
+    return x
+
+
+def _dls_apply(rows, lam2: float):
+    """
+    Return a function b -> J# b with J# = J^T (J J^T + lam2 I)^-1 (rows: m lists of n).
+
+    Uses the smaller of the m x m and n x n normal matrices (push-through identity).
+    """
+    m, n = len(rows), len(rows[0])
+    if m <= n:
+        G = [[_dot(ri, rj) for rj in rows] for ri in rows]
+        for i in range(m):
+            G[i][i] += lam2
+        cols = list(zip(*rows))
+
+        def apply(b):
+            y = _cholesky_solve([r[:] for r in G], b)
+            return [_dot(col, y) for col in cols]
+        return apply
+    cols = list(zip(*rows))
+    G = [[_dot(ca, cb) for cb in cols] for ca in cols]
+    for i in range(n):
+        G[i][i] += lam2
+
+    def apply_n(b):
+        return _cholesky_solve([r[:] for r in G], [_dot(col, b) for col in cols])
+    return apply_n
+
+
+def _matvec(rows, x) -> Vec:
+    return [_dot(r, x) for r in rows]
+
+
+# ---------------------------------------------------------------------------------------------
+# solvers
+# ---------------------------------------------------------------------------------------------
+
+def _secondary(kind: Optional[str], q: Vec, q_nominal: Vec, lo: Vec, hi: Vec) -> Optional[Vec]:
+    """Return the secondary-task joint velocity g(q) (seed 000 eq. 3)."""
+    if kind == 'nominal':
+        return [a - b for a, b in zip(q_nominal, q)]
+    if kind == 'limits':
+        # gradient of -sum(((q - mid) / span)^2): pushes every joint toward mid-range
+        return [-4.0 * (x - 0.5 * (a + b)) / max(b - a, 1e-9) ** 2
+                for x, a, b in zip(q, lo, hi)]
+    if kind is None:
+        return None
+    raise ValueError(f"secondary task must be None, 'nominal' or 'limits', not {kind!r}")
+
+
+def _clip(q: Vec, lo: Vec, hi: Vec) -> Vec:
+    return [a if x < a else b if x > b else x for x, a, b in zip(q, lo, hi)]
+
+
+def _finish(method, success, q, it, pe, oe, reason='', **details) -> IkResult:
+    qa = np.array(q, dtype=float)
+    return IkResult(success=success, q=qa, solutions=[qa.copy()] if success else [],
+                    method=method, iterations=it, position_error=pe, orientation_error=oe,
+                    reason=reason, details=details)
+
+
+def _not_converged(method, q, it, pe, oe) -> IkResult:
+    return _finish(method, False, q, it, pe, oe, reason=(
+        f'did not converge in {it} iterations (position error {pe:.3g} m, '
+        f'orientation error {oe:.3g} rad)'))
+
+
+def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str] = None,
+              alpha: float = 1.0, beta: float = 1.0, damping: float = 1e-6,
+              max_step: float = 0.5, tol_position: float = 1e-9, tol_orientation: float = 1e-9,
+              tol_secondary: float = 1e-8, max_iterations: int = 200,
+              check_limits: bool = True) -> IkResult:
+    """
+    Damped least squares from q0, with an optional null-space secondary task (seed 000 eq. 3).
+
+    :param task: what to reach (``Task``)
+    :param secondary: None, 'nominal' (toward q_nominal, default model.home) or 'limits'
+        (away from the joint limits)
+    :param alpha, beta: primary / secondary gains
+    :param damping: lambda of J^T (J J^T + lambda^2 I)^-1; an extra LM term (0.1 |e|)^2 damps
+        large errors
+    :param max_step: joint step norm limit per iteration [rad]
+    :param check_limits: keep every iterate inside the joint limits (projection)
+    :return: IkResult; success when the task errors are within tolerance and, with a secondary
+        task, its null-space step is below tol_secondary (``details['secondary_settled']``
+        is False when the iterations ran out with only the primary task met: still a success)
+    """
+    c = chain(model)
+    lo, hi = c.lower.tolist(), c.upper.tolist()
+    q = [float(x) for x in q0]
+    if check_limits:
+        q = _clip(q, lo, hi)
+    qn = [float(x) for x in (model.home if q_nominal is None else q_nominal)]
+    met_q = None
+    pe = oe = math.inf
+    it = 0
+    for it in range(max_iterations + 1):
+        R, p, Jw, Jv = fk_jacobian_py(c, q)
+        pe, oe = task.errors_py(R, p)
+        met = pe <= tol_position and oe <= tol_orientation
+        if met and secondary is None:
+            return _finish('dls', True, q, it, pe, oe)
+        if it == max_iterations:
+            break
+        e, rows = task.residual_py(R, p, Jw, Jv)
+        e2 = sum(x * x for x in e)
+        pinv = _dls_apply(rows, damping * damping + 0.01 * e2)
+        dq = [alpha * x for x in pinv(e)]
+        if secondary is not None:
+            g = _secondary(secondary, q, qn, lo, hi)
+            jg = pinv(_matvec(rows, g))
+            dn = [beta * (a - b) for a, b in zip(g, jg)]
+            dn_norm = math.sqrt(sum(x * x for x in dn))
+            if met:
+                met_q = (list(q), pe, oe)
+                if dn_norm <= tol_secondary:
+                    return _finish('dls', True, q, it, pe, oe, secondary_settled=True,
+                                   secondary_step=dn_norm)
+            dq = [a + b for a, b in zip(dq, dn)]
+        norm = math.sqrt(sum(x * x for x in dq))
+        if norm > max_step:
+            k = max_step / norm
+            dq = [x * k for x in dq]
+        q = [a + b for a, b in zip(q, dq)]
+        if check_limits:
+            q = _clip(q, lo, hi)
+        if not all(math.isfinite(x) for x in q):
+            return IkResult(False, None, method='dls', iterations=it,
+                            reason='iteration diverged (non-finite joint values)')
+    if met_q is not None:
+        qm, pm, om = met_q
+        return _finish('dls', True, qm, it, pm, om, secondary_settled=False)
+    return _not_converged('dls', q, it, pe, oe)
+
+
+def solve_newton(model, task: Task, q0, *, max_step: float = 0.5, alpha: float = 1.0,
+                 tol_position: float = 1e-9, tol_orientation: float = 1e-9,
+                 max_iterations: int = 200, check_limits: bool = True) -> IkResult:
+    """
+    Newton-Raphson IK (seed 003): pinv step, step-norm limit, joint-limit projection.
+
+    For a 'full' task the error is the space twist log(T_target T^-1) with the space Jacobian
+    (exactly seed 003); other tasks use ``Task.residual_py``. Generic over any model.
+    """
+    c = chain(model)
+    lo, hi = c.lower, c.upper
+    q = np.array(q0, dtype=float)
+    if check_limits:
+        q = np.clip(q, lo, hi)
+    T_target = task.pose()
+    pe = oe = math.inf
+    it = 0
+    for it in range(max_iterations + 1):
+        R, p, Jw, Jv = fk_jacobian_py(c, q.tolist())
+        pe, oe = task.errors_py(R, p)
+        if pe <= tol_position and oe <= tol_orientation:
+            return _finish('newton-raphson', True, q, it, pe, oe)
+        if it == max_iterations:
+            break
+        if task.kind == 'full':
+            T = np.array([R[0] + [p[0]], R[1] + [p[1]], R[2] + [p[2]], [0, 0, 0, 1.0]])
+            Xi = log_se3(T_target @ _inv(T))
+            Js = np.empty((6, c.n))
+            Js[:3] = np.array(Jw).T
+            # space Jacobian: linear rows at the base origin = v_ee - omega x p_ee
+            Js[3:] = np.array([(a[0] - (o[1] * p[2] - o[2] * p[1]),
+                                a[1] - (o[2] * p[0] - o[0] * p[2]),
+                                a[2] - (o[0] * p[1] - o[1] * p[0]))
+                               for o, a in zip(Jw, Jv)]).T
+            dq = np.linalg.pinv(Js) @ Xi
+        else:
+            e, rows = task.residual_py(R, p, Jw, Jv)
+            dq = np.linalg.pinv(np.array(rows)) @ np.array(e)
+        norm = float(np.linalg.norm(dq))
+        if norm > max_step:
+            dq *= max_step / norm
+        if check_limits:
+            dq = np.clip(q + dq, lo, hi) - q
+        q = q + alpha * dq
+        if not np.all(np.isfinite(q)):
+            return IkResult(False, None, method='newton-raphson', iterations=it,
+                            reason='iteration diverged (non-finite joint values)')
+    return _not_converged('newton-raphson', q, it, pe, oe)
+
+
+def _inv(T: np.ndarray) -> np.ndarray:
+    Ti = np.eye(4)
+    Ti[:3, :3] = T[:3, :3].T
+    Ti[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return Ti
+
+
+def newton_raphson_seed003(model, T_target, q0, max_iters: int = 50, tol: float = 1e-4,
+                           alpha: float = 1.0):
+    """
+    Return (q, info) exactly as seed 003's ``inverse_kinematics_space_basic``.
+
+    info = {'converged': bool, 'iter': k, 'err': [||Xi|| per iteration]}; convergence when the
+    space twist norm ||log(T_target T^-1)|| < tol. Steps longer than 0.5 are scaled to 0.5 and
+    then projected onto the joint limits.
+    """
+    c = chain(model)
+    q = np.array(q0, dtype=float)
+    T_target = np.asarray(T_target, dtype=float)
+    history = []
+    for k in range(max_iters):
+        T, J = fk_and_jacobian(c, q)
+        Xi = log_se3(T_target @ _inv(T))
+        err = float(np.linalg.norm(Xi))
+        history.append(err)
+        if err < tol:
+            return q, {'converged': True, 'iter': k, 'err': history}
+        Js = J.copy()
+        Js[3:] -= np.cross(J[:3].T, T[:3, 3]).T
+        dq = np.linalg.pinv(Js) @ Xi
+        norm = np.linalg.norm(dq)
+        if norm > 0.5:
+            dq = dq * (0.5 / norm)
+        dq = np.clip(q + dq, c.lower, c.upper) - q
+        q = q + alpha * dq
+    return q, {'converged': False, 'iter': max_iters, 'err': history}

@@ -1,0 +1,455 @@
+"""
+The single IK entry point for every robot model: ``solve_ik``, ``solve_ik_batch``, ``solve_path``.
+
+Targets are (4, 4) poses of the end effector in ``model.base_frame`` [m]. Modes:
+
+- 'full': the whole pose.
+- 'pitch': position + the reachable part of the orientation (Interbotix semantics for arms with
+  fewer than 6 joints): the target's static 'sxyz' (roll, pitch, yaw) is taken in the form with
+  |roll| <= pi/2, the yaw is forced to the target azimuth about the first joint axis (or that
+  + pi: the waist can reach over the top), and on <= 4-joint arms the roll is dropped, so only
+  the tool x axis direction is constrained. ``details['unreachable_roll']`` and
+  ``details['unreachable_yaw']`` report what was dropped [rad]. 6+ joints: same as 'full'.
+- 'position': orientation free; the free angles are chosen by the null-space task toward
+  ``q_nominal`` (seed 000 eq. 3; default ``model.home``).
+
+Methods: 'analytic' (the model's ``ik.analytic`` plug-in, see ``kinematics.analytic``), 'dls'
+(damped least squares), 'newton' (seed 003 Newton-Raphson), 'auto' (analytic if the model has
+one, falling back to DLS when it finds nothing valid and is not known to be complete).
+Solutions are ordered by Euclidean distance to ``q_seed`` (seed 000 cost function; default
+``model.home``). No robot specifics here.
+"""
+import math
+from typing import List, Sequence
+
+import numpy as np
+
+from px100_control.errors import InvalidInputError
+from px100_control.kinematics.analytic import get_solver
+from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_batch, solve_dls,
+                                                solve_newton, Task)
+
+MODES = ('full', 'pitch', 'position')
+METHODS = ('auto', 'analytic', 'dls', 'newton')
+_POLISH_LIMIT = 1e-6      # analytic candidates this close get a few DLS iterations of polish
+_RESTARTS = 8             # iterative starts: seed, nominal, home, sleep, then random in limits
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def check_pose(T_target, what: str = 'pose') -> np.ndarray:
+    """
+    Return T_target as a float (4, 4) array; raise InvalidInputError if it is not a rigid pose.
+
+    Checks shape, NaN/inf, the bottom row and that the rotation is orthonormal with det +1.
+    """
+    try:
+        T = np.array(T_target, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f'{what} is not numeric: {T_target!r}') from exc
+    if T.shape != (4, 4):
+        raise InvalidInputError(f'{what} must be a (4, 4) matrix, got shape {T.shape}')
+    if np.isnan(T).any():
+        raise InvalidInputError(f'{what} contains NaN')
+    if not np.isfinite(T).all():
+        raise InvalidInputError(f'{what} contains inf')
+    if np.abs(T[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-9:
+        raise InvalidInputError(f'{what} bottom row must be [0, 0, 0, 1], got {T[3].tolist()}')
+    R = T[:3, :3]
+    err = float(np.abs(R.T @ R - np.eye(3)).max())
+    if err > 1e-6 or np.linalg.det(R) < 0:
+        raise InvalidInputError(f'{what} rotation is not a rotation matrix (|R^T R - I| = '
+                                f'{err:.3g}, det = {np.linalg.det(R):.3g})')
+    return T
+
+
+def target_azimuth(model, p) -> float:
+    """
+    Return the azimuth [rad] of a point about the first joint axis (atan2(y, x) on Interbotix).
+
+    Used when the yaw of a < 6-DOF arm is forced; falls back to atan2(y, x) in the base frame.
+    """
+    S = np.asarray(model.S_list, float)
+    w = S[:3, 0]
+    p = np.asarray(p, float)
+    if model.joint_types[0] != 'prismatic' and abs(abs(w[2]) - 1.0) < 1e-9:
+        v = S[3:, 0]
+        c = np.array([w[1] * v[2] - w[2] * v[1], w[2] * v[0] - w[0] * v[2],
+                      w[0] * v[1] - w[1] * v[0]])      # a point on the first axis
+        d = p - c
+        if d[0] * d[0] + d[1] * d[1] > 1e-24:
+            return math.atan2(d[1], d[0])
+        return 0.0
+    return math.atan2(p[1], p[0])
+
+
+def _euler_sxyz(T: np.ndarray):
+    """Return (roll, pitch, yaw) of T's rotation, static 'sxyz' (math-module version)."""
+    (r00, _, _), (r10, _, _), (r20, r21, r22) = T[:3, :3].tolist()
+    cy = math.hypot(r00, r10)
+    if cy > 1e-9:
+        return math.atan2(r21, r22), math.atan2(-r20, cy), math.atan2(r10, r00)
+    (_, r01, _), (_, r11, _) = T[:2, :3].tolist()
+    return 0.0, math.atan2(-r20, cy), math.atan2(-r01, r11)
+
+
+def _pose_sxyz(p, roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Return the (4, 4) pose Rz(yaw) Ry(pitch) Rx(roll) at position p."""
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr, p[0]],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr, p[1]],
+        [-sp, cp * sr, cp * cr, p[2]],
+        [0.0, 0.0, 0.0, 1.0]])
+
+
+def pitch_target(model, T: np.ndarray):
+    """
+    Return (T_forced (4, 4), details) for 'pitch' mode (see module docstring).
+
+    details: unreachable_roll, unreachable_yaw [rad] dropped from the target, and the kept
+    'pitch' [rad] and forced 'yaw' [rad].
+    """
+    n = model.dof
+    if n >= 6:
+        return T, {'unreachable_roll': 0.0, 'unreachable_yaw': 0.0}
+    r, p, y = _euler_sxyz(T)
+    if abs(r) > math.pi / 2:
+        r, p, y = _wrap(r + math.pi), _wrap(math.pi - p), _wrap(y + math.pi)
+    a = target_azimuth(model, T[:3, 3])
+    dy = _wrap(y - a)
+    y_forced = a if abs(dy) <= math.pi / 2 else _wrap(a + math.pi)
+    keep_roll = n == 5
+    Tf = _pose_sxyz(T[:3, 3], r if keep_roll else 0.0, p, y_forced)
+    return Tf, {'unreachable_roll': 0.0 if keep_roll else float(r),
+                'unreachable_yaw': float(_wrap(y - y_forced)),
+                'pitch': float(p), 'yaw': float(y_forced)}
+
+
+def make_task(model, T: np.ndarray, mode: str):
+    """Return (Task, details) for a validated (4, 4) target and mode."""
+    details = {}
+    if mode == 'pitch':
+        Tf, details = pitch_target(model, T)
+        kind = 'axis' if model.dof <= 4 else 'full'
+        return Task(Tf[:3, 3].copy(), Tf[:3, :3].copy(), kind), details, Tf
+    if mode == 'position':
+        return Task(T[:3, 3].copy(), T[:3, :3].copy(), 'position'), details, T
+    return Task(T[:3, 3].copy(), T[:3, :3].copy(), 'full'), details, T
+
+
+def _wrap_into_limits(model, Q: np.ndarray) -> np.ndarray:
+    """Shift revolute joint values by +-2 pi where that brings them inside their limits."""
+    lo, hi = np.asarray(model.lower), np.asarray(model.upper)
+    if np.all((Q >= lo - 1e-9) & (Q <= hi + 1e-9)):
+        return Q
+    rev = np.array([t != 'prismatic' for t in model.joint_types])
+    for shift in (2.0 * math.pi, -2.0 * math.pi):
+        moved = Q + shift
+        better = rev & ((Q < lo - 1e-9) | (Q > hi + 1e-9)) & (moved >= lo - 1e-9) & (
+            moved <= hi + 1e-9)
+        Q = np.where(better, moved, Q)
+    return Q
+
+
+def _limit_reason(model, Q: np.ndarray) -> str:
+    """Return words for the least-violating candidate's worst joint."""
+    lo, hi = np.asarray(model.lower), np.asarray(model.upper)
+    excess = np.maximum(lo - Q, Q - hi)
+    worst = excess.max(axis=1)
+    k = int(np.argmin(worst))
+    j = int(np.argmax(excess[k]))
+    name = model.joint_names[j]
+    return (f"joint '{name}' would be {Q[k, j]:.4g} rad, outside "
+            f'[{lo[j]:.4g}, {hi[j]:.4g}]' + (
+                f' (best of {len(Q)} solutions)' if len(Q) > 1 else ''))
+
+
+def _order(solutions: List[np.ndarray], q_seed: np.ndarray) -> List[np.ndarray]:
+    out: List[np.ndarray] = []
+    for q in sorted(solutions, key=lambda s: float(np.sum((s - q_seed) ** 2))):
+        if all(np.abs(q - o).max() > 1e-9 for o in out):
+            out.append(q)
+    return out
+
+
+def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
+              max_iterations, module) -> IkResult:
+    name = f'analytic:{model.analytic_ik}'
+    C = np.asarray(module.candidates(model, T_eff, mode), dtype=float).reshape(-1, model.dof)
+    C = C[np.all(np.isfinite(C), axis=1)]
+    if len(C) and check_limits:
+        C = _wrap_into_limits(model, C)
+    if mode == 'position':
+        return _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
+                                max_iterations, name, module, T_eff)
+    c = chain(model)
+    verified = []
+    best_err = (math.inf, math.inf)
+    if len(C):
+        Ts = fk_batch(c, C)
+        for q, T in zip(C, Ts):
+            pe, oe = task.errors(T)
+            if pe > tol_p or oe > tol_o:
+                if pe < _POLISH_LIMIT and oe < _POLISH_LIMIT:
+                    res = solve_dls(model, task, q, tol_position=tol_p, tol_orientation=tol_o,
+                                    max_iterations=10, check_limits=False)
+                    if res.success:
+                        q, pe, oe = res.q, res.position_error, res.orientation_error
+                if pe > tol_p or oe > tol_o:
+                    if pe + oe < sum(best_err):
+                        best_err = (pe, oe)
+                    continue
+            verified.append(q)
+    valid = verified
+    if check_limits and verified:
+        V = np.array(verified)
+        lo, hi = np.asarray(model.lower) - 1e-9, np.asarray(model.upper) + 1e-9
+        inside = np.all((V >= lo) & (V <= hi), axis=1)
+        valid = [q for q, ok in zip(verified, inside) if ok]
+    if valid:
+        sols = _order(valid, q_seed)
+        T, _ = fk_and_jacobian(c, sols[0])
+        pe, oe = task.errors(T)
+        return IkResult(True, sols[0], sols, name, 0, pe, oe, '',
+                        {'candidates': int(len(C)), 'in_limits': len(sols)})
+    if verified:
+        reason = _limit_reason(model, np.array(verified))
+        return IkResult(False, None, [], name, 0, reason=reason,
+                        details={'candidates': int(len(C)), 'outside_limits': len(verified),
+                                 'rejected': [q.tolist() for q in verified]})
+    reason = ''
+    if hasattr(module, 'unreachable_reason'):
+        reason = module.unreachable_reason(model, T_eff, mode)
+    if not reason:
+        if len(C):
+            reason = (f'no closed-form solution reproduces the target (best position error '
+                      f'{best_err[0]:.3g} m, orientation error {best_err[1]:.3g} rad)')
+        else:
+            reason = 'target is out of reach (no closed-form solution)'
+    return IkResult(False, None, [], name, 0, reason=reason,
+                    details={'candidates': int(len(C)), 'unreachable': True})
+
+
+def _distinct_starts(C: np.ndarray, ref: np.ndarray, count: int, sep: float = 0.3):
+    order = np.argsort(np.sum((C - ref) ** 2, axis=1))
+    starts: list = []
+    for i in order:
+        if all(np.linalg.norm(C[i] - s) > sep for s in starts):
+            starts.append(C[i])
+            if len(starts) == count:
+                break
+    return starts
+
+
+def _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
+                     max_iterations, name, module, T_eff) -> IkResult:
+    """Position mode: refine closed-form samples with the null-space task toward q_nominal."""
+    if check_limits and len(C):
+        lo, hi = np.asarray(model.lower) - 1e-9, np.asarray(model.upper) + 1e-9
+        inside = np.all((C >= lo) & (C <= hi), axis=1)
+        if not inside.any():
+            return IkResult(False, None, [], name, 0, reason=_limit_reason(model, C),
+                            details={'candidates': int(len(C))})
+        C = C[inside]
+    if not len(C):
+        reason = ''
+        if hasattr(module, 'unreachable_reason'):
+            reason = module.unreachable_reason(model, T_eff, 'position')
+        return IkResult(False, None, [], name, 0,
+                        reason=reason or 'target is out of reach (no closed-form solution)',
+                        details={'candidates': 0, 'unreachable': True})
+    sols, iters = [], 0
+    last = None
+    for start in _distinct_starts(C, q_nominal, 4):
+        res = solve_dls(model, task, start, q_nominal=q_nominal, secondary='nominal',
+                        tol_position=tol_p, tol_orientation=tol_o,
+                        max_iterations=max_iterations, check_limits=check_limits)
+        iters += res.iterations
+        last = res
+        if res.success:
+            sols.append(res.q)
+    if not sols:
+        return IkResult(False, None, [], name, iters, reason=last.reason, details={})
+    sols = _order(sols, q_seed)
+    c = chain(model)
+    T, _ = fk_and_jacobian(c, sols[0])
+    pe, oe = task.errors(T)
+    return IkResult(True, sols[0], sols, name + '+dls', iters, pe, oe, '',
+                    {'candidates': int(len(C)), 'secondary': 'nominal'})
+
+
+def _starts(model, q_seed, q_nominal):
+    """Yield distinct iterative starts: seed, nominal, home, sleep, then random in limits."""
+    seen: list = []
+    rng = None
+    lo, hi = np.asarray(model.lower, float), np.asarray(model.upper, float)
+    fixed = [q_seed, q_nominal, model.home, model.sleep]
+    for k in range(_RESTARTS):
+        if k < len(fixed):
+            s = np.asarray(fixed[k], float)
+        else:
+            rng = rng or np.random.default_rng(0)
+            s = rng.uniform(lo, hi)
+        if any(np.abs(s - u).max() <= 1e-6 for u in seen):
+            continue
+        seen.append(s)
+        yield s
+
+
+def _iterative(model, task, method, q_seed, q_nominal, check_limits, tol_p, tol_o,
+               max_iterations) -> IkResult:
+    secondary = 'nominal' if task.kind == 'position' else None
+    total, tried, best = 0, 0, None
+    for s in _starts(model, q_seed, q_nominal):
+        tried += 1
+        if method == 'newton':
+            res = solve_newton(model, task, s, tol_position=tol_p, tol_orientation=tol_o,
+                               max_iterations=max_iterations, check_limits=check_limits)
+        else:
+            res = solve_dls(model, task, s, q_nominal=q_nominal, secondary=secondary,
+                            tol_position=tol_p, tol_orientation=tol_o,
+                            max_iterations=max_iterations, check_limits=check_limits)
+        total += res.iterations
+        if res.success:
+            res.iterations = total
+            res.details['starts'] = tried
+            return res
+        if best is None or (res.q is not None and res.position_error + res.orientation_error
+                            < best.position_error + best.orientation_error):
+            best = res
+    best.iterations = total
+    best.details['starts'] = tried
+    best.reason = (f'{best.method} found no solution from {tried} starts (best position '
+                   f'error {best.position_error:.3g} m, orientation error '
+                   f'{best.orientation_error:.3g} rad); the target may be out of reach')
+    return best
+
+
+def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None,
+             check_limits: bool = True, method: str = 'auto', tol_position: float = 1e-9,
+             tol_orientation: float = 1e-9, max_iterations: int = 200) -> IkResult:
+    """
+    Solve the IK of ``model`` for a (4, 4) end-effector target in ``model.base_frame`` [m].
+
+    :param mode: 'full' | 'pitch' | 'position' (module docstring)
+    :param q_seed: (n,) solutions are ordered by distance to it (default model.home)
+    :param q_nominal: (n,) secondary-task target for free angles (default model.home)
+    :param check_limits: drop solutions outside the joint limits
+    :param method: 'auto' | 'analytic' | 'dls' | 'newton'
+    :param tol_position: [m]; tol_orientation: [rad] of the constrained orientation part
+    :param max_iterations: per start of an iterative method
+    :return: IkResult (success False with ``reason`` when there is no valid solution)
+    :raises InvalidInputError: malformed pose (NaN, inf, shape, not a rotation), bad seed,
+        unknown mode or method
+    """
+    if mode not in MODES:
+        raise InvalidInputError(f"mode must be one of {MODES}, not {mode!r}")
+    if method not in METHODS:
+        raise InvalidInputError(f"method must be one of {METHODS}, not {method!r}")
+    T = check_pose(T_target, 'target pose')
+    q_seed = np.asarray(model.home, float) if q_seed is None else model.check_vector(
+        q_seed, 'q_seed')
+    q_nominal = np.asarray(model.home, float) if q_nominal is None else model.check_vector(
+        q_nominal, 'q_nominal')
+    for name, tol in (('tol_position', tol_position), ('tol_orientation', tol_orientation)):
+        if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+            raise InvalidInputError(f'{name} must be a positive finite number, not {tol!r}')
+    task, details, T_eff = make_task(model, T, mode)
+    if method in ('auto', 'analytic') and model.analytic_ik:
+        module = get_solver(model.analytic_ik)
+        res = _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits,
+                        tol_position, tol_orientation, max_iterations, module)
+        if res.success or method == 'analytic' or getattr(module, 'complete', False):
+            res.details.update(details)
+            return res
+        fallback = _iterative(model, task, 'dls', q_seed, q_nominal, check_limits,
+                              tol_position, tol_orientation, max_iterations)
+        if fallback.success:
+            fallback.method = 'dls (analytic fallback)'
+            fallback.details.update(details)
+            return fallback
+        res.details.update(details)
+        return res
+    if method == 'analytic':
+        return IkResult(False, None, method='analytic', reason=(
+            f"robot model '{model.name}' has no analytic IK solver"), details=details)
+    res = _iterative(model, task, 'newton' if method == 'newton' else 'dls', q_seed, q_nominal,
+                     check_limits, tol_position, tol_orientation, max_iterations)
+    res.details.update(details)
+    return res
+
+
+def _pitch_rows_to_poses(model, rows: np.ndarray) -> np.ndarray:
+    return np.array([_pose_sxyz((x, y, z), 0.0, pitch, target_azimuth(model, (x, y, z)))
+                     for x, y, z, pitch in rows])
+
+
+def solve_ik_batch(model, targets, q_seed=None, check_limits: bool = True,
+                   return_all: bool = False):
+    """
+    Return (Q (N, n), ok (N,)): the best 'pitch'-mode solution of each of N targets.
+
+    :param targets: (N, 4, 4) poses, or (N, 4) rows (x, y, z, pitch) [m, rad] in the base frame
+    :param q_seed: (n,) solutions closest to it win (default model.home)
+    :param return_all: (analytic batch solvers only) return every branch (N, k, n), (N, k)
+    Vectorised when the model's analytic module has ``solve_batch``; otherwise a loop over
+    ``solve_ik(mode='pitch')``. Rows of Q without a solution are NaN.
+    :raises InvalidInputError: wrong shape or NaN/inf in the targets
+    """
+    try:
+        X = np.asarray(targets, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError('targets are not numeric') from exc
+    if not ((X.ndim == 3 and X.shape[1:] == (4, 4)) or (X.ndim == 2 and X.shape[1] == 4)):
+        raise InvalidInputError(f'targets must be (N, 4, 4) poses or (N, 4) rows (x, y, z, '
+                                f'pitch), got shape {X.shape}')
+    finite = np.isfinite(X.reshape(len(X), -1)).all(axis=1)
+    if not finite.all():
+        raise InvalidInputError(f'target {int(np.argmin(finite))} contains NaN or inf')
+    seed = None if q_seed is None else model.check_vector(q_seed, 'q_seed')
+    module = get_solver(model.analytic_ik) if model.analytic_ik else None
+    if module is not None and hasattr(module, 'solve_batch'):
+        return module.solve_batch(model, X, q_seed=seed, check_limits=check_limits,
+                                  return_all=return_all)
+    if return_all:
+        raise InvalidInputError(f"return_all needs an analytic batch solver; '{model.name}' "
+                                'has none')
+    poses = X if X.ndim == 3 else _pitch_rows_to_poses(model, X)
+    Q = np.full((len(poses), model.dof), np.nan)
+    ok = np.zeros(len(poses), dtype=bool)
+    for i, T in enumerate(poses):
+        res = solve_ik(model, T, mode='pitch', q_seed=seed, check_limits=check_limits)
+        if res.success:
+            Q[i], ok[i] = res.q, True
+    return Q, ok
+
+
+def solve_path(model, T_list: Sequence, q_start, mode: str = 'pitch',
+               **kwargs) -> List[IkResult]:
+    """
+    Solve a sequence of poses, each seeded by the previous solution (no branch jumps).
+
+    Each IkResult's ``q`` is the solution closest to the previous one (``q_start`` for the
+    first). Stops at the first pose without a solution: the last result then has
+    ``success=False`` and its ``reason`` (``details['index']`` says which pose).
+    Extra keyword arguments go to ``solve_ik``.
+    """
+    prev = model.check_vector(q_start, 'q_start')
+    q_nominal = kwargs.pop('q_nominal', None)
+    out: List[IkResult] = []
+    for i, T in enumerate(T_list):
+        # position mode: the free angles stay near the previous solution unless told otherwise
+        nominal = q_nominal if q_nominal is not None else (prev if mode == 'position' else None)
+        res = solve_ik(model, T, mode=mode, q_seed=prev, q_nominal=nominal, **kwargs)
+        res.details['index'] = i
+        out.append(res)
+        if not res.success:
+            res.reason = f'pose {i}: {res.reason}'
+            break
+        prev = res.q
+    return out
