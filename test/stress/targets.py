@@ -25,6 +25,13 @@ TERMINAL = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_CANCELED, GoalStatus.
 #: request ids of the harness's own valid requests live at this sec (fuzz rarely hits it)
 PROBE_SEC = 1_234_567
 _probe_counter = [0]
+#: reduced-form sizes per target (PX100_STRESS=full: 10,000 each)
+REDUCED = {
+    'commands/joint_setpoints': 400, 'torque_enable': 150, 'reset': 150,
+    'ik/request': 400, 'ik/path_request': 150, 'trajectory/goal': 300,
+    'trajectory/cancel': 300, '/sim_driver/set_parameters': 150,
+    '/ik_service/set_parameters': 100, '/trajectory_server/set_parameters': 100,
+}
 
 
 def probe_stamp() -> Time:

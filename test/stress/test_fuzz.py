@@ -14,16 +14,9 @@ import os
 import pytest
 
 from .harness import full_mode, fuzz, Graph, stress_size
-from .targets import driver_works, goal_works, ik_works, make_targets
+from .targets import driver_works, goal_works, ik_works, make_targets, REDUCED
 
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
-#: reduced-form sizes per target (PX100_STRESS=full: 10,000 each)
-REDUCED = {
-    'commands/joint_setpoints': 400, 'torque_enable': 150, 'reset': 150,
-    'ik/request': 400, 'ik/path_request': 150, 'trajectory/goal': 300,
-    'trajectory/cancel': 300, '/sim_driver/set_parameters': 150,
-    '/ik_service/set_parameters': 100, '/trajectory_server/set_parameters': 100,
-}
 #: joint_states is nominally 100 Hz, ee_pose too; a campaign must keep 80 % of it
 MIN_RATE = {'joint_states': 80.0, 'ee_pose': 80.0}
 MAX_GAP = 0.5
