@@ -15,10 +15,10 @@ The single-configuration loops run on plain Python floats (small chains: a numpy
 more than the arithmetic); ``fk_batch`` is the vectorised numpy FK for many configurations.
 Units: m, rad.
 """
+from dataclasses import dataclass
 import functools
 import math
 from operator import mul
-from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -225,7 +225,7 @@ class Task:
 
     @property
     def dim(self) -> int:
-        """Number of task rows."""
+        """Return the number of task rows."""
         return 3 if self.kind == 'position' else 6
 
     def pose(self) -> np.ndarray:

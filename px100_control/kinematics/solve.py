@@ -348,9 +348,9 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
         unknown mode or method
     """
     if mode not in MODES:
-        raise InvalidInputError(f"mode must be one of {MODES}, not {mode!r}")
+        raise InvalidInputError(f'mode must be one of {MODES}, not {mode!r}')
     if method not in METHODS:
-        raise InvalidInputError(f"method must be one of {METHODS}, not {method!r}")
+        raise InvalidInputError(f'method must be one of {METHODS}, not {method!r}')
     T = check_pose(T_target, 'target pose')
     q_seed = np.asarray(model.home, float) if q_seed is None else model.check_vector(
         q_seed, 'q_seed')

@@ -15,9 +15,9 @@ measured from the outward (base -> target) direction. Both waist branches realis
 x axis at a given pitch (the back branch, reaching over the top, has its roll flipped by pi).
 Units: m, rad.
 """
+from dataclasses import dataclass
 import functools
 import math
-from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np

@@ -1,0 +1,260 @@
+"""
+Closed-form px100 IK: round trips, every branch, limits, reasons, other px100-geometry models.
+
+Round trip: 10,000 random in-limit configurations -> FK -> vectorised batch IK; every returned
+solution reproduces the target (1e-9 m, 1e-9 rad) and the generating configuration is one of them.
+"""
+import dataclasses
+import math
+
+import numpy as np
+from px100_control.errors import InvalidInputError
+from px100_control.kinematics.analytic import px100 as ana
+from px100_control.kinematics.iterative import chain, fk_batch
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
+from px100_control.kinematics.se3 import adjoint, rot_x, rot_z, transform
+from px100_control.kinematics.solve import solve_ik, solve_ik_batch
+from px100_control.models.registry import load_robot, table_to_poe
+import pytest
+
+TOL = 1e-9
+
+
+@pytest.fixture(scope='module')
+def px100():
+    return load_robot('px100')
+
+
+def _x_axis_angle(A, B):
+    """Return the angles between the tool x axes of pose stacks A and B (..., 4, 4)."""
+    xa, xb = A[..., :3, 0], B[..., :3, 0]
+    return np.arctan2(np.linalg.norm(np.cross(xa, xb), axis=-1), np.sum(xa * xb, axis=-1))
+
+
+def test_batch_round_trip_10k(px100):
+    """10,000 random in-limit configurations: all solutions verify, the generator is found."""
+    n = 10_000
+    Q0 = px100.random_configurations(n, np.random.default_rng(2024))
+    c = chain(px100)
+    T = fk_batch(c, Q0)
+    Q, ok = solve_ik_batch(px100, T, return_all=True)
+    assert Q.shape == (n, 4, 4) and ok.shape == (n, 4)
+    assert ok.any(axis=1).all(), 'a reachable in-limit target got no solution'
+    Tq = fk_batch(c, Q.reshape(-1, 4)).reshape(n, 4, 4, 4)
+    pos_err = np.linalg.norm(Tq[..., :3, 3] - T[:, None, :3, 3], axis=-1)
+    ang_err = _x_axis_angle(Tq, T[:, None])
+    assert pos_err[ok].max() < TOL, pos_err[ok].max()
+    assert ang_err[ok].max() < TOL, ang_err[ok].max()
+    # the generating configuration is among the in-limit solutions
+    found = (np.abs(Q - Q0[:, None, :]).max(axis=2) < 1e-7) & ok
+    assert found.any(axis=1).all(), np.nonzero(~found.any(axis=1))[0][:5]
+    # solutions sharing the generator's waist reproduce the full pose, not just the x axis
+    same = ok & (np.abs(Q[..., 0] - Q0[:, None, 0]) < 1e-7)
+    R_err = np.linalg.norm(Tq[..., :3, :3] - T[:, None, :3, :3], axis=(-2, -1))
+    assert R_err[same].max() < 1e-9
+
+
+def test_batch_best_is_closest_to_seed(px100):
+    """The (N, n) batch answer is the in-limit branch nearest to q_seed (seed cost function)."""
+    Q0 = px100.random_configurations(500, np.random.default_rng(5))
+    T = fk_batch(chain(px100), Q0)
+    seed = np.array([0.3, -0.5, 0.4, 0.2])
+    Q_all, ok_all = solve_ik_batch(px100, T, q_seed=seed, return_all=True)
+    Q, ok = solve_ik_batch(px100, T, q_seed=seed)
+    assert ok.all()
+    cost = np.where(ok_all, np.sum((Q_all - seed) ** 2, axis=2), np.inf)
+    np.testing.assert_allclose(Q, Q_all[np.arange(len(Q)), np.argmin(cost, axis=1)])
+
+
+def test_batch_rows_xyz_pitch_match_poses(px100):
+    """(N, 4) rows (x, y, z, pitch) give the same answers as the Interbotix-style poses."""
+    rng = np.random.default_rng(8)
+    Q0 = px100.random_configurations(300, rng)
+    T = fk_batch(chain(px100), Q0)
+    Q1, ok1 = solve_ik_batch(px100, T)
+    rows = ana._pose_rows(px100, T)
+    Q2, ok2 = solve_ik_batch(px100, rows)
+    assert (ok1 == ok2).all()
+    np.testing.assert_allclose(Q1[ok1], Q2[ok2], atol=1e-12)
+
+
+@pytest.mark.parametrize('mode', ['full', 'pitch'])
+def test_solve_ik_round_trip(px100, mode):
+    """solve_ik: every solution reaches the pose and the generator is among them."""
+    rng = np.random.default_rng(11 if mode == 'full' else 12)
+    for q0 in px100.random_configurations(300, rng):
+        T = px100.fk(q0)
+        res = solve_ik(px100, T, mode=mode)
+        assert res.success, res.reason
+        assert res.method == 'analytic:px100' and res.iterations == 0
+        assert any(np.abs(s - q0).max() < 1e-7 for s in res.solutions)
+        for s in res.solutions:
+            Ts = px100.fk(s)
+            assert np.linalg.norm(Ts[:3, 3] - T[:3, 3]) < TOL
+            if mode == 'full':
+                assert np.linalg.norm(Ts[:3, :3] - T[:3, :3]) < TOL
+            assert px100.within_limits(s)
+        assert res.position_error < TOL and res.orientation_error < TOL
+
+
+def test_four_branches_when_all_fit(px100):
+    """A mid-workspace target has 4 distinct in-limit solutions (waist a, a+pi; 2 elbows)."""
+    x, y, z, pitch = 0.0688, 0.0629, 0.3334, -0.355
+    sols = ana.ik_xyz_pitch(px100, x, y, z, pitch)
+    assert len(sols) == 4
+    waists = sorted({round(s[0], 9) for s in sols})
+    assert len(waists) == 2 and abs(abs(waists[1] - waists[0]) - math.pi) < 1e-9
+    for s in sols:
+        T = px100.fk(np.array(s))
+        np.testing.assert_allclose(T[:3, 3], [x, y, z], atol=TOL)
+        assert abs(-T[2, 0] - math.sin(pitch)) < 1e-9            # tool x elevation
+    # the full-pose API finds the two that share the target's yaw
+    Tt = transform(euler_sxyz_to_matrix(0.0, pitch, math.atan2(y, x)), [x, y, z])
+    res = solve_ik(px100, Tt, mode='full')
+    assert len(res.solutions) == 2
+    assert all(abs(s[0] - math.atan2(y, x)) < 1e-9 for s in res.solutions)
+    assert len(solve_ik(px100, Tt, mode='pitch').solutions) == 4
+
+
+def test_solutions_ordered_by_distance_to_seed(px100):
+    """solutions[0] is the one closest to q_seed (Euclidean, seed 000 cost function)."""
+    a = math.atan2(0.0629, 0.0688)
+    Tt = transform(euler_sxyz_to_matrix(0.0, -0.355, a), [0.0688, 0.0629, 0.3334])
+    for seed in ([0, 0, 0, 0], [a - math.pi, -1.0, 1.0, 0.0], [a, 1.0, -1.5, 0.5]):
+        res = solve_ik(px100, Tt, mode='pitch', q_seed=seed)
+        d = [np.linalg.norm(s - seed) for s in res.solutions]
+        assert d == sorted(d) and len(d) == 4
+
+
+def test_interbotix_pitch_semantics(px100):
+    """Pitch mode with R = euler(0, pitch, atan2(y, x), 'sxyz') reaches that exact pose."""
+    for x, y, z, pitch in [(0.2, 0.0, 0.1, 0.0), (0.15, -0.1, 0.05, 0.6),
+                           (0.1, 0.1, 0.25, -0.4), (-0.12, 0.05, 0.15, 0.9)]:
+        T = transform(euler_sxyz_to_matrix(0.0, pitch, math.atan2(y, x)), [x, y, z])
+        res = solve_ik(px100, T, mode='pitch')
+        assert res.success, res.reason
+        Ts = px100.fk(res.q)
+        np.testing.assert_allclose(Ts[:3, 3], [x, y, z], atol=TOL)
+        roll, p, yaw = matrix_to_euler_sxyz(Ts[:3, :3])
+        assert abs(p - pitch) < 1e-9
+        assert abs(math.remainder(yaw - math.atan2(y, x), math.pi)) < 1e-9
+        # the scalar fast path agrees with the first solution
+        best = ana.ik_xyz_pitch(px100, x, y, z, pitch)[0]
+        np.testing.assert_allclose(best, res.q, atol=1e-12)
+
+
+def test_pitch_mode_reports_dropped_roll_and_yaw(px100):
+    """A rolled, mis-yawed target is solved for position + pitch; the rest is reported."""
+    T = transform(euler_sxyz_to_matrix(0.25, 0.3, math.atan2(0.05, 0.2) + 0.1),
+                  [0.2, 0.05, 0.12])
+    res = solve_ik(px100, T, mode='pitch')
+    assert res.success
+    assert res.details['unreachable_roll'] == pytest.approx(0.25, abs=1e-9)
+    assert res.details['unreachable_yaw'] == pytest.approx(0.1, abs=1e-9)
+    _, pitch, _ = matrix_to_euler_sxyz(px100.fk(res.q)[:3, :3])
+    assert pitch == pytest.approx(0.3, abs=1e-9)
+    full = solve_ik(px100, T, mode='full')
+    assert not full.success and 'rolled' in full.reason
+
+
+def test_out_of_reach_reason_says_by_how_much(px100):
+    """A target 5 cm beyond the stretched arm fails with 'beyond reach' and that distance."""
+    g = ana.geometry(px100)
+    reach = g.Lr + g.L3 + g.L4          # straight arm from the shoulder at pitch 0... roughly
+    shoulder = np.array([0.0, 0.0, -g.v2])
+    # straight arm pointing along +x at pitch 0: wrist at distance Lr + L3 from the shoulder
+    wrist_max = g.Lr + g.L3
+    p = shoulder + [wrist_max + g.L4 + 0.05, 0.0, 0.0]
+    res = solve_ik(px100, transform(np.eye(3), p), mode='pitch')
+    assert not res.success and res.q is None and res.solutions == []
+    assert 'beyond reach' in res.reason
+    assert float(res.reason.split()[2]) == pytest.approx(0.05, abs=1e-4)
+    res = solve_ik(px100, transform(np.eye(3), [0.0, 0.0, -g.v2 + reach + 0.03]),
+                   mode='position')
+    assert not res.success and 'beyond reach' in res.reason
+    assert float(res.reason.split()[2]) == pytest.approx(0.03, abs=1e-4)
+
+
+def test_joint_limit_reason_names_the_joint(px100):
+    """A pose only reachable with the elbow past its limit says which joint and the limits."""
+    q = np.array([-1.213, -2.304, 2.599, -0.385])     # shoulder and elbow past their limits
+    T = px100.fk(q)
+    res = solve_ik(px100, T, mode='full')
+    assert not res.success
+    assert res.reason.startswith("joint 'elbow' would be 2.599 rad, outside [-2.112, 1.606]")
+    assert res.details['outside_limits'] >= 1
+    free = solve_ik(px100, T, mode='full', check_limits=False)
+    assert free.success and any(np.abs(s - q).max() < 1e-9 for s in free.solutions)
+
+
+def test_invalid_inputs_raise(px100):
+    """NaN, inf, wrong shape, non-rotation, bad mode or seed raise InvalidInputError."""
+    T = px100.fk([0.1, 0.2, 0.1, 0.0])
+    bad = T.copy()
+    bad[0, 3] = np.nan
+    with pytest.raises(InvalidInputError, match='NaN'):
+        solve_ik(px100, bad)
+    bad = T.copy()
+    bad[1, 3] = np.inf
+    with pytest.raises(InvalidInputError, match='inf'):
+        solve_ik(px100, bad)
+    with pytest.raises(InvalidInputError, match='shape'):
+        solve_ik(px100, T[:3])
+    skew = T.copy()
+    skew[:3, :3] *= 1.1
+    with pytest.raises(InvalidInputError, match='rotation'):
+        solve_ik(px100, skew)
+    with pytest.raises(InvalidInputError, match='mode'):
+        solve_ik(px100, T, mode='elbow')
+    with pytest.raises(InvalidInputError):
+        solve_ik(px100, T, q_seed=[0.0, 0.0])
+    with pytest.raises(InvalidInputError):
+        solve_ik_batch(px100, np.array([[0.2, 0.0, np.nan, 0.0]]))
+    with pytest.raises(InvalidInputError):
+        solve_ik_batch(px100, np.zeros((3, 5)))
+
+
+def _moved_model(model, T_base):
+    """Return the same arm mounted at T_base (the base frame moved), as a new RobotModel."""
+    return dataclasses.replace(model, name=model.name + '_moved',
+                               S_list=adjoint(T_base) @ model.S_list, M=T_base @ model.M)
+
+
+def test_geometry_from_model_not_hard_coded(px100):
+    """A px100 mounted elsewhere (mobile_px100-like) and the DH-built px100 solve the same."""
+    T_base = transform(rot_z(0.7) @ rot_x(0.0), [0.1, -0.2, 0.05])
+    moved = _moved_model(px100, T_base)
+    S, M, _ = table_to_poe(px100.extra['alternative_models']['dh'])
+    dh_model = dataclasses.replace(px100, name='px100_dh', S_list=S, M=M)
+    for q0 in px100.random_configurations(100, np.random.default_rng(4)):
+        for model in (moved, dh_model):
+            T = model.fk(q0)
+            res = solve_ik(model, T, mode='full')
+            assert res.success, res.reason
+            assert any(np.abs(s - q0).max() < 1e-7 for s in res.solutions)
+    Q0 = px100.random_configurations(1000, np.random.default_rng(6))
+    Q, ok = solve_ik_batch(moved, fk_batch(chain(moved), Q0), return_all=True)
+    assert ((np.abs(Q - Q0[:, None]).max(axis=2) < 1e-7) & ok).any(axis=1).all()
+
+
+def test_flipped_axes_model(px100):
+    """Joint axes given with the opposite sign (elbow about -y) are handled through signs."""
+    S = px100.S_list.copy()
+    S[:, 2] *= -1.0
+    flipped = dataclasses.replace(px100, name='px100_flipped', S_list=S,
+                                  lower=-px100.upper * [0, 0, 1, 0] + px100.lower * [1, 1, 0, 1],
+                                  upper=-px100.lower * [0, 0, 1, 0] + px100.upper * [1, 1, 0, 1])
+    assert ana.geometry(flipped).signs[2] == -1.0
+    for q0 in flipped.random_configurations(100, np.random.default_rng(9)):
+        res = solve_ik(flipped, flipped.fk(q0), mode='full')
+        assert res.success and any(np.abs(s - q0).max() < 1e-7 for s in res.solutions)
+
+
+def test_reach_margin_matches_seed_torus(px100):
+    """reach_margin at pitch is the seed 000 torus bound: 0 on the stretched-arm boundary."""
+    g = ana.geometry(px100)
+    x_max = g.Lr + g.L3 + g.L4       # q = q_nom-like straight arm at pitch 0
+    p = [x_max, 0.0, -g.v2]
+    assert ana.reach_margin(px100, p, 0.0) == pytest.approx(0.0, abs=1e-12)
+    assert ana.reach_margin(px100, [x_max + 0.01, 0.0, -g.v2], 0.0) == pytest.approx(-0.01)
+    assert ana.reach_margin(px100, [x_max - 0.01, 0.0, -g.v2], 0.0) == pytest.approx(0.01)
