@@ -64,9 +64,27 @@ def stamp_text(stamp) -> str:
     return f'{stamp.sec}.{stamp.nanosec:09d}'
 
 
+def _brief(value, depth: int = 0):
+    """Return value with long sequences cut to their first items and their length."""
+    if hasattr(value, 'get_fields_and_field_types') and depth < 6:
+        fields = ', '.join(f'{f}={_brief(getattr(value, f), depth + 1)}'
+                           for f in value.get_fields_and_field_types())
+        return f'{type(value).__name__}({fields})'
+    if isinstance(value, (str, bytes)):
+        return repr(value if len(value) <= 40 else value[:40]) + (
+            f'...(len {len(value)})' if len(value) > 40 else '')
+    try:
+        n = len(value)
+    except TypeError:
+        return repr(value)
+    items = [_brief(v, depth + 1) for v in list(value[:4])]
+    more = f', ...(len {n})' if n > 4 else ''
+    return '[' + ', '.join(items) + more + ']'
+
+
 def short(msg, limit: int = 600) -> str:
-    """Return repr(msg) cut to limit characters (fuzzed messages can be megabytes)."""
-    text = repr(msg)
+    """Return a readable description of a (possibly megabyte-sized) message, cut to limit."""
+    text = _brief(msg)
     return text if len(text) <= limit else text[:limit] + f'... ({len(text)} chars)'
 
 
@@ -501,6 +519,8 @@ class Campaign:
     unanswered: List[str] = field(default_factory=list)
     failures: List[str] = field(default_factory=list)
     seconds: float = 0.0
+    send_seconds: float = 0.0
+    slowest: list = field(default_factory=list)
     rates: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
@@ -508,7 +528,8 @@ class Campaign:
         return {'target': self.target, 'tried': self.tried, 'answered': self.answered,
                 'unanswered': len(self.unanswered), 'unanswered_examples':
                 self.unanswered[:5], 'failures': self.failures[:5], 'seconds':
-                round(self.seconds, 2), 'rates': self.rates}
+                round(self.seconds, 2), 'send_seconds': round(self.send_seconds, 2),
+                'slowest_answers': self.slowest, 'rates': self.rates}
 
 
 class FuzzFailure(AssertionError):
@@ -537,7 +558,14 @@ def fuzz(strategy, send: Callable, count: int, graph: Graph, probe: Probe, targe
         graph.revive(probe, cause=f'died before an input to {target}')
         mark = len(probe.violations)
         camp.tried += 1
+        ts = time.monotonic()
         answered = send(msg)
+        dt = time.monotonic() - ts
+        camp.send_seconds += dt
+        if len(camp.slowest) < 3 or dt > camp.slowest[-1][0]:
+            camp.slowest.append((round(dt, 3), short(msg, 300)))
+            camp.slowest.sort(key=lambda x: -x[0])
+            del camp.slowest[3:]
         if answered:
             camp.answered += 1
         elif answered is not None:

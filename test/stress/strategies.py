@@ -26,6 +26,8 @@ INT32_MIN, INT32_MAX = -2 ** 31, 2 ** 31 - 1
 UINT32_MAX = 2 ** 32 - 1
 #: size of a "huge" array (kept below what would make one DDS sample take seconds)
 HUGE = (1_000, 10_000)
+#: a huge input is drawn about once in RARE (they cost far more than the others to send)
+RARE = 15
 
 # -- scalars ---------------------------------------------------------------------------------
 
@@ -96,11 +98,9 @@ def headers_kw(robot_name='px100'):
     return st.tuples(times(), frames(robot_name))
 
 
-def _sized_list(elements, max_size=12):
-    """Return lists: empty, small, or (rarely) huge copies of one drawn element."""
-    return st.one_of(
-        st.lists(elements, max_size=max_size),
-        st.builds(lambda n, v: [v] * n, st.integers(*HUGE), elements))
+def rarely(rare, common, one_in=RARE):
+    """Return ``rare`` about once in ``one_in`` draws, else ``common`` (shrinks to common)."""
+    return st.integers(1, one_in).flatmap(lambda k: rare if k == one_in else common)
 
 
 @lru_cache(maxsize=None)
@@ -125,11 +125,10 @@ def joint_name_lists(known, max_size=10):
     name = st.one_of(st.sampled_from(known), unknown)
     valid = st.permutations(known).flatmap(
         lambda p: st.integers(0, len(p)).map(lambda k: list(p[:k])))
-    return st.one_of(
+    return rarely(st.builds(lambda n: [known[0]] * n, st.integers(*HUGE)), st.one_of(
         valid,
         st.lists(name, max_size=max_size),
-        valid.filter(bool).map(lambda names: names + names[:1]),  # duplicate
-        st.builds(lambda n: [known[0]] * n, st.integers(*HUGE)))
+        valid.filter(bool).map(lambda names: names + names[:1])))  # duplicate
 
 
 def _value_strategy(name, limits):
@@ -140,8 +139,8 @@ def _value_strategy(name, limits):
 @lru_cache(maxsize=None)
 def mismatched_values(n):
     """Return a values list of a length different from n (or any length)."""
-    return st.one_of(st.lists(any_floats(), max_size=n + 3).filter(lambda v: len(v) != n),
-                     huge_floats())
+    return rarely(huge_floats(),
+                  st.lists(any_floats(), max_size=n + 3).filter(lambda v: len(v) != n))
 
 
 _VECTOR_KINDS = st.sampled_from(('match', 'match', 'empty', 'mismatch'))
@@ -230,8 +229,8 @@ def pose_arrays(draw, robot_name='px100', huge=(200, 2_000)):
     """Return geometry_msgs/PoseArray path requests: empty, short, long, nasty."""
     msg = PoseArray()
     msg.header.stamp, msg.header.frame_id = draw(headers_kw(robot_name))
-    msg.poses = draw(st.one_of(st.lists(poses(), max_size=8),
-                               st.builds(lambda n, p: [p] * n, st.integers(*huge), poses())))
+    msg.poses = draw(rarely(st.builds(lambda n, p: [p] * n, st.integers(*huge), poses()),
+                            st.lists(poses(), max_size=8)))
     return msg
 
 
@@ -275,7 +274,7 @@ def joint_trajectories(draw, arm, limits, velocity_limits, robot_name='px100'):
     msg.joint_names = names
     count = draw(st.one_of(st.integers(0, 4), st.just(0), st.integers(5, 12)))
     msg.points = draw(trajectory_points(names, limits, velocity_limits, count))
-    if count and draw(st.integers(0, 19)) == 0:   # a huge goal: one point copied many times
+    if count and draw(st.integers(1, RARE)) == RARE:   # a huge goal: one point many times
         msg.points = msg.points[:1] * draw(st.integers(*HUGE))
     return msg
 
