@@ -94,7 +94,7 @@ class InterbotixArmXSInterface:
         self.initial_guesses[2][0] = math.radians(120)
         self.rev = 2 * math.pi
         self.info_index_map = {name: i for i, name in enumerate(self.joint_names)}
-        self.joint_commands: List[float] = list(self.core.joint_positions(self.joint_names))
+        self.joint_commands: List[float] = self.get_joint_positions()
         self.T_sb = self.model.fk(self.joint_commands)
         self._last_goal = None
         self.moving_time = None
@@ -352,8 +352,8 @@ class InterbotixArmXSInterface:
             theta = self._wrap_theta_list(theta)
             dp, dw = pose_error_norms(self.model.fk(theta), T)
             if dp > EV or dw > EOMG:
-                problem = (f'closest reachable pose is {dp * 1000:.1f} mm / {dw:.3f} rad away '
-                           f'({reply.reason})')
+                problem = (f'the pose ik_service found is {dp * 1000:.1f} mm / {dw:.3f} rad '
+                           f'from the target (ik_service: {reply.reason})')
             else:
                 mt, at = self._times(moving_time, accel_time)
                 problem = self._limit_problem(theta, mt, at)
@@ -511,20 +511,20 @@ class InterbotixArmXSInterface:
 
     def capture_joint_positions(self) -> None:
         """Set the commanded joints to the measured ones and recompute T_sb (after torque off)."""
-        self.joint_commands = list(self.core.joint_positions(self.joint_names))
+        self.joint_commands = self.get_joint_positions()
         self._update_Tsb()
 
     def get_joint_positions(self) -> List[float]:
         """Return the measured joint positions [rad] (group order)."""
-        return list(self.core.joint_positions(self.joint_names))
+        return [float(v) for v in self.core.joint_positions(self.joint_names)]
 
     def get_joint_velocities(self) -> List[float]:
         """Return the measured joint velocities [rad/s] (group order)."""
-        return list(self.core._joint_field(self.joint_names, 'velocity'))
+        return [float(v) for v in self.core._joint_field(self.joint_names, 'velocity')]
 
     def get_joint_efforts(self) -> List[float]:
         """Return the measured joint efforts [N*m] (group order; Interbotix: mA or load)."""
-        return list(self.core._joint_field(self.joint_names, 'effort'))
+        return [float(v) for v in self.core._joint_field(self.joint_names, 'effort')]
 
     def get_number_of_joints(self) -> int:
         """Return the number of joints in the group."""

@@ -43,6 +43,9 @@ from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
 from px100_control.ros.conversions import matrix_to_pose, stamp_id, stamp_key
+from rcl_interfaces.msg import Parameter as ParameterMsg
+from rcl_interfaces.msg import ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.logging import LoggingSeverity
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -180,6 +183,8 @@ class InterbotixRobotXSCore:
         self._ik: Dict[Tuple[int, int], _Pending] = {}
         self._paths: Dict[Tuple[int, int], _Pending] = {}
         self._last_stamp_ns = 0
+        self._server_accel: Optional[float] = None
+        self._param_clients: Dict[str, object] = {}
         self._registers: Dict[str, Dict[str, int]] = {}
         self._modes: Dict[str, Tuple[str, str]] = {}
         for j in self.model.joint_names:
@@ -473,13 +478,69 @@ class InterbotixRobotXSCore:
             pt.time_from_start = _duration(t)
             msg.points.append(pt)
         if accel_time is not None and len(msg.points) == 1:
-            _encode_accel_time(msg, accel_time)
+            self._set_server_accel_time(float(accel_time))
         pending = _Pending(stamp_key(msg.header.stamp))
         with self._pending_lock:
             self._goals[pending.key] = pending
             self._prune(self._goals)
         self.pub_goal.publish(msg)
         return pending
+
+    def _set_server_accel_time(self, accel_time: float, timeout: float = 2.0) -> None:
+        """
+        Make trajectory_server's ``accel_time`` parameter equal to ``accel_time`` [s].
+
+        trajectory_server reads its ``accel_time`` parameter when a one-point goal arrives (its
+        documented way to choose a move's trapezoid ramp), so the client sets it (only when it
+        changes: sticky, like Interbotix's Profile_Acceleration register) and waits for the
+        answer before publishing the goal. A failure is logged; the server's value then applies.
+        """
+        if self._server_accel is not None and abs(self._server_accel - accel_time) < 1e-9:
+            return
+        infos = self.robot_node.get_subscriptions_info_by_topic(self.topic('trajectory/goal'))
+        if not infos:
+            return
+        node = f"{infos[0].node_namespace.rstrip('/')}/{infos[0].node_name}"
+        problem = self.set_remote_parameters(node, {'accel_time': float(accel_time)}, timeout)
+        if problem:
+            self.get_node().logwarn(f"Cannot set trajectory_server's accel_time to "
+                                    f'{accel_time:.3f} s: {problem}')
+            return
+        self._server_accel = float(accel_time)
+
+    def set_remote_parameters(self, node: str, values: dict, timeout: float = 2.0) -> str:
+        """
+        Set parameters of another node (e.g. ``'/sim_driver'``) through its set_parameters.
+
+        px100_control extension. :return: '' on success, else the reason in words
+        """
+        service = f"{node.rstrip('/')}/set_parameters"
+        if not service.startswith('/'):
+            service = '/' + service
+        client = self._param_clients.get(service)
+        if client is None:
+            client = self.robot_node.create_client(SetParameters, service,
+                                                   callback_group=self._cbg)
+            self._param_clients[service] = client
+        if not client.wait_for_service(timeout_sec=timeout):
+            return f"no service '{service}' (is {node} running?)"
+        params = [ParameterMsg(name=k, value=_parameter_value(v)) for k, v in values.items()]
+        future = client.call_async(SetParameters.Request(parameters=params))
+        end = time.monotonic() + timeout
+        while not future.done() and time.monotonic() < end:
+            time.sleep(0.002)
+        if not future.done() or future.result() is None:
+            return f"'{service}' did not answer within {timeout:.1f} s"
+        bad = [r.reason for r in future.result().results if not r.successful]
+        return '; '.join(r or 'refused' for r in bad)
+
+    def find_node(self, name: str) -> Optional[str]:
+        """Return the full name of a running node called ``name`` (robot namespace first)."""
+        found = [(ns, n) for n, ns in self.robot_node.get_node_names_and_namespaces()
+                 if n == name]
+        for ns, n in sorted(found, key=lambda x: x[0] != (self.ns or '/')):
+            return f"{ns.rstrip('/')}/{n}"
+        return None
 
     def wait_for_goal(self, pending: _Pending, timeout: float) -> Tuple[bool, str]:
         """
@@ -509,6 +570,9 @@ class InterbotixRobotXSCore:
             return True, ''
         if self._torn_down and pending.status not in TERMINAL:
             return False, 'robot_shutdown() was called during the move'
+        end = time.monotonic() + 0.5
+        while not pending.reason and time.monotonic() < end:
+            time.sleep(0.01)  # the reason comes on /diagnostics, just after the status
         state = STATUS_NAMES.get(pending.status, 'UNKNOWN')
         reason = pending.reason or 'see the trajectory_server log / /diagnostics'
         return False, f'goal {gid} ended {state}: {reason}'
@@ -893,8 +957,12 @@ def _duration(t: float) -> DurationMsg:
     return DurationMsg(sec=sec, nanosec=int(round((t - sec) * 1e9)) % 1_000_000_000)
 
 
-def _encode_accel_time(msg: JointTrajectory, accel_time: float) -> None:
-    """Express a one-point goal's trapezoid ramp time as trajectory_server expects it."""
-    # placeholder until trajectory_server's convention is known: a second field is not part
-    # of the contract, so the server's default profile applies
-    return None
+def _parameter_value(value) -> ParameterValue:
+    """Return the rcl_interfaces ParameterValue of a bool, int, float or str."""
+    if isinstance(value, bool):
+        return ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value)
+    if isinstance(value, int):
+        return ParameterValue(type=ParameterType.PARAMETER_INTEGER, integer_value=value)
+    if isinstance(value, float):
+        return ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
+    return ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=str(value))

@@ -69,10 +69,8 @@ class InProcessBringup:
 
     def stop(self) -> None:
         """Stop spinning and destroy the nodes."""
-        if self.executor is not None:
-            self.executor.shutdown(timeout_sec=2.0)
-        if self.thread is not None:
-            self.thread.join(timeout=5.0)
+        from px100_control.client.robot import stop_executor
+        stop_executor(self.executor, self.thread)
         for n in self.nodes:
             try:
                 n.destroy_node()

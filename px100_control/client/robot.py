@@ -147,6 +147,23 @@ def _spin(executor: MultiThreadedExecutor) -> None:
             raise
 
 
+def stop_executor(executor, thread, timeout: float = 5.0) -> None:
+    """
+    Stop an executor spinning in ``thread`` and wait for its in-flight callbacks.
+
+    rclpy's Executor.shutdown() does not wait for callbacks already handed to a
+    MultiThreadedExecutor's thread pool; destroying nodes under them makes them fail, so the
+    pool is drained here first.
+    """
+    if executor is not None:
+        executor.shutdown(timeout_sec=timeout)
+    if thread is not None:
+        thread.join(timeout=timeout)
+    pool = getattr(executor, '_executor', None)
+    if pool is not None and hasattr(pool, 'shutdown'):
+        pool.shutdown(wait=True)
+
+
 def ensure_spinning(node: Node) -> None:
     """
     Spin ``node`` in the client's background executor thread (start it if needed).
@@ -221,11 +238,7 @@ def robot_shutdown(node: Optional[Node] = None) -> None:
             except Exception:  # noqa: B902 - shutting down anyway
                 pass
         _RT.robots = []
-        executor, thread = _RT.executor, _RT.thread
-        if executor is not None:
-            executor.shutdown(timeout_sec=2.0)
-        if thread is not None:
-            thread.join(timeout=5.0)
+        stop_executor(_RT.executor, _RT.thread)
         nodes = list(_RT.spun_nodes)
         if node is not None and node not in nodes:
             nodes.append(node)
