@@ -1,0 +1,322 @@
+"""
+Analytic IK of the 7-DOF myArm 300 Pi (seed 003), parameterised by the elbow swivel angle.
+
+Structure (read from ``S_list``/``M`` and checked against the model's FK): axes at q = 0 are
+z, y, z, x, z, x, z; joints 1-3 meet at the shoulder S = (0, 0, d1), joint 4 (the elbow) crosses
+the z axis at (0, 0, d1 + d3), joints 5-7 meet at the wrist W = (0, 0, d1 + d3 + d5), and the
+flange is d7 above W with M = I. Rotations compose as
+
+    R = Rz(q1) Ry(q2) Rz(q3) Rx(q4) Rz(q5) Rx(q6) Rz(q7),
+    W(q) = S + Rz(q1) Ry(q2) Rz(q3) (d3 z + Rx(q4) d5 z),   p = W + R d7 z.
+
+For a target (R, p): W = p - d7 R z. |W - S| fixes |q4| (law of cosines). The elbow E lies on a
+circle about the line S-W; the swivel angle psi places it on that circle, measured from the
+plane through S-W and the world z axis (world x when S-W is vertical). For a given psi:
+
+- shoulder: R_sh z = u = (E - S) / d3 gives q2 = +-acos(u_z), q1 = atan2(+-u_y, +-u_x);
+- elbow: (Rz1 Ry2)^T (W - E) / d5 = Rz(q3) (0, -sin q4, cos q4) gives q4 = +-acos and q3;
+- wrist: (Rz1 Ry2 Rz3 Rx4)^T R = Rz(q5) Rx(q6) Rz(q7) (ZXZ Euler), q6 = +-acos.
+
+So 8 branches per swivel angle (``solve_swivel``). ``candidates`` chooses the swivel of each
+branch by a 1-D search (a 10 deg grid, then two finer grids around the best): by default the
+secondary criterion is the largest normalised distance to the joint limits (farthest from the
+limits; feasible first); with ``q_seed`` it is the distance to the seed among the in-limit
+solutions. It returns the chosen solution of every branch. It is not complete (a feasible
+swivel interval narrower than the grid can be missed), so ``solve_ik`` falls back to its
+iterative solvers. Modes: 'full' and 'pitch' (a 7-DOF arm reaches the whole pose);
+'position': closed-form solutions for a few tool orientations, as starting points for
+``solve_ik``'s null-space refinement. Units: m, rad.
+"""
+from dataclasses import dataclass
+import functools
+import math
+from typing import Optional
+
+import numpy as np
+
+from px100_control.errors import RobotModelError
+
+#: the swivel search may miss narrow feasible intervals: solve_ik keeps its iterative fallback
+complete = False
+
+_GRID = 36            # swivel samples in the coarse search (10 deg)
+_FINE = 15            # samples in each refinement stage
+_TINY = 1e-12
+_PATTERN = 'zyzxzxz'
+_UNIT = {'x': np.array([1.0, 0.0, 0.0]), 'y': np.array([0.0, 1.0, 0.0]),
+         'z': np.array([0.0, 0.0, 1.0])}
+
+
+@dataclass(frozen=True)
+class SrsGeometry:
+    """Dimensions [m] and joint-angle signs of a myArm-like SRS arm."""
+
+    d1: float
+    d3: float
+    d5: float
+    d7: float
+    signs: np.ndarray     # (7,) joint value = sign * geometric angle
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+def _fk_geometric(g: SrsGeometry, t: np.ndarray) -> np.ndarray:
+    """Return the (4, 4) pose of geometric angles t (for the structure check)."""
+    from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
+    Rs = rot_z(t[0]) @ rot_y(t[1]) @ rot_z(t[2])
+    R4 = Rs @ rot_x(t[3])
+    R = R4 @ rot_z(t[4]) @ rot_x(t[5]) @ rot_z(t[6])
+    z = np.array([0.0, 0.0, 1.0])
+    W = np.array([0.0, 0.0, g.d1]) + Rs @ (g.d3 * z) + R4 @ (g.d5 * z)
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = W + g.d7 * R[:, 2]
+    return T
+
+
+@functools.lru_cache(maxsize=16)
+def geometry(model) -> SrsGeometry:
+    """
+    Return the SRS geometry of a model (cached), derived from S_list and M.
+
+    :raises RobotModelError: the model is not a myArm-like 7-DOF SRS arm
+    """
+    S = np.asarray(model.S_list, dtype=float)
+    if S.shape != (6, 7) or any(t != 'revolute' for t in model.joint_types):
+        raise RobotModelError(f"'{model.name}' is not a 7-revolute-joint arm; the "
+                              'myarm300pi solver does not apply')
+    signs, heights = [], []
+    for i, a in enumerate(_PATTERN):
+        w = S[:3, i]
+        s = float(w @ _UNIT[a])
+        pt = np.cross(w, S[3:, i])
+        if abs(abs(s) - 1.0) > 1e-9 or math.hypot(pt[0], pt[1]) > 1e-9:
+            raise RobotModelError(f"'{model.name}': joint {model.joint_names[i]} must be "
+                                  f'+-{a} through the base z axis at q = 0')
+        signs.append(math.copysign(1.0, s))
+        heights.append(pt[2])
+    M = np.asarray(model.M, dtype=float)
+    if np.abs(M[:3, :3] - np.eye(3)).max() > 1e-9 or math.hypot(M[0, 3], M[1, 3]) > 1e-9:
+        raise RobotModelError(f"'{model.name}': M must be the identity rotation on the z axis")
+    d1, z4, z6 = heights[1], heights[3], heights[5]
+    g = SrsGeometry(d1=float(d1), d3=float(z4 - d1), d5=float(z6 - z4), d7=float(M[2, 3] - z6),
+                    signs=np.array(signs), lower=np.asarray(model.lower, float),
+                    upper=np.asarray(model.upper, float))
+    if g.d3 <= 0.0 or g.d5 <= 0.0:
+        raise RobotModelError(f"'{model.name}': upper arm and forearm lengths must be > 0")
+    rng = np.random.default_rng(3)
+    for q in rng.uniform(model.lower, model.upper, size=(4, 7)):
+        if np.abs(_fk_geometric(g, q * g.signs) - model.fk(q)).max() > 1e-9:
+            raise RobotModelError(f"'{model.name}' does not match the SRS structure of the "
+                                  'myArm 300 Pi')
+    return g
+
+
+def _frame(g: SrsGeometry, R: np.ndarray, p: np.ndarray):
+    """Return (W, w_hat, L, n_hat, m_hat, cos_a, sin_a) of a target, or None if out of reach."""
+    W = p - g.d7 * R[:, 2]
+    sw = W - np.array([0.0, 0.0, g.d1])
+    L = float(np.linalg.norm(sw))
+    if L > g.d3 + g.d5 + 1e-12 or L < abs(g.d3 - g.d5) - 1e-12 or L < _TINY:
+        return None
+    w = sw / L
+    ref = np.array([0.0, 0.0, 1.0]) if abs(w[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    n = ref - (ref @ w) * w
+    n /= np.linalg.norm(n)
+    m = np.cross(w, n)
+    ca = min(1.0, max(-1.0, (g.d3 * g.d3 + L * L - g.d5 * g.d5) / (2.0 * g.d3 * L)))
+    return W, w, L, n, m, ca, math.sqrt(1.0 - ca * ca)
+
+
+_SIGNS = np.array([[1.0 if not (k >> 2) & 1 else -1.0, 1.0 if not (k >> 1) & 1 else -1.0,
+                    1.0 if not k & 1 else -1.0] for k in range(8)])   # (8, 3): q2, q4, q6
+
+
+def _solve(g: SrsGeometry, fr, R: np.ndarray, psi: np.ndarray, sg: np.ndarray) -> np.ndarray:
+    """Return (K, 7) geometric angles for K (swivel, branch signs (q2, q4, q6)) pairs."""
+    W, w, _, n, m, ca, sa = fr
+    cps, sps = np.cos(psi), np.sin(psi)
+    u = ca * w + sa * (cps[:, None] * n + sps[:, None] * m)          # (K, 3) upper arm
+    f = (W - np.array([0.0, 0.0, g.d1]) - g.d3 * u) / g.d5           # (K, 3) forearm
+    s2g, s4g, s6g = sg[:, 0], sg[:, 1], sg[:, 2]
+    # cosines and sines come from the unit vectors directly (fewer transcendental calls)
+    rxy = np.hypot(u[:, 0], u[:, 1])
+    reg1 = rxy > _TINY
+    inv1 = np.where(reg1, s2g / np.where(reg1, rxy, 1.0), 0.0)
+    c1, s1 = np.where(reg1, u[:, 0] * inv1, 1.0), u[:, 1] * inv1
+    c2, s2 = np.clip(u[:, 2], -1.0, 1.0), s2g * rxy
+    t1, t2 = np.arctan2(s1, c1), np.arctan2(s2, c2)
+    # g = (Rz1 Ry2)^T f = Rz(t3) (0, -sin t4, cos t4)
+    gx = c1 * c2 * f[:, 0] + s1 * c2 * f[:, 1] - s2 * f[:, 2]
+    gy = -s1 * f[:, 0] + c1 * f[:, 1]
+    gz = c1 * s2 * f[:, 0] + s1 * s2 * f[:, 1] + c2 * f[:, 2]
+    hxy = np.hypot(gx, gy)
+    reg3 = hxy > _TINY
+    inv3 = np.where(reg3, s4g / np.where(reg3, hxy, 1.0), 0.0)
+    s3, c3 = gx * inv3, np.where(reg3, -gy * inv3, 1.0)
+    c4, s4 = np.clip(gz, -1.0, 1.0), s4g * hxy
+    t3, t4 = np.arctan2(s3, c3), np.arctan2(s4, c4)
+    # C = Rz(t1) Ry(t2) Rz(t3) Rx(t4) (elementwise: batched 3x3 products are slow in numpy)
+    a00, a01, a02, a10, a11, a12, a20, a22 = c1 * c2, -s1, c1 * s2, s1 * c2, c1, s1 * s2, -s2, c2
+    b01, b02, b11, b12 = -s3 * c4, s3 * s4, c3 * c4, -c3 * s4
+    C = [[a00 * c3 + a01 * s3, a00 * b01 + a01 * b11 + a02 * s4, a00 * b02 + a01 * b12 + a02 * c4],
+         [a10 * c3 + a11 * s3, a10 * b01 + a11 * b11 + a12 * s4, a10 * b02 + a11 * b12 + a12 * c4],
+         [a20 * c3, a20 * b01 + a22 * s4, a20 * b02 + a22 * c4]]
+
+    def rw(i, k):
+        """Entry (i, k) of C^T R = Rz(t5) Rx(t6) Rz(t7)."""
+        return C[0][i] * R[0, k] + C[1][i] * R[1, k] + C[2][i] * R[2, k]
+    w02, w12, w22, w20, w21, w10, w00 = rw(0, 2), rw(1, 2), rw(2, 2), rw(2, 0), rw(2, 1), \
+        rw(1, 0), rw(0, 0)
+    sb = np.hypot(w02, w12)
+    regular = sb > 1e-10
+    t6 = np.arctan2(s6g * sb, w22)
+    t5 = np.where(regular, np.arctan2(s6g * w02, -s6g * w12), 0.0)
+    z7 = np.arctan2(w10, w00)
+    t7 = np.where(regular, np.arctan2(s6g * w20, s6g * w21), np.where(w22 > 0, z7, -z7))
+    out = np.stack([t1, t2, t3, t4, t5, t6, t7], axis=1) * g.signs
+    return np.remainder(out + np.pi, 2.0 * np.pi) - np.pi
+
+
+def solve_swivel(model, T_target: np.ndarray, psi) -> np.ndarray:
+    """
+    Return (G, 8, 7) joint values of all 8 branches at each of G swivel angles psi [rad].
+
+    Branch k has q2, q4, q6 signs from bits 2, 1, 0 of k (0 = +). Rows are NaN when the
+    wrist point is out of reach. Angles wrapped to [-pi, pi); limits not checked.
+    """
+    g = geometry(model)
+    T = np.asarray(T_target, dtype=float)
+    psi = np.atleast_1d(np.asarray(psi, dtype=float))
+    G = psi.shape[0]
+    fr = _frame(g, T[:3, :3], T[:3, 3])
+    if fr is None:
+        return np.full((G, 8, 7), np.nan)
+    Q = _solve(g, fr, T[:3, :3], np.repeat(psi, 8), np.tile(_SIGNS, (G, 1)))
+    return Q.reshape(G, 8, 7)
+
+
+def swivel_angle(model, q) -> float:
+    """Return the swivel angle [rad] of configuration q (as solve_swivel measures it)."""
+    g = geometry(model)
+    q = np.asarray(q, dtype=float) * g.signs
+    from px100_control.kinematics.se3 import rot_y, rot_z
+    T = _fk_geometric(g, q)
+    fr = _frame(g, T[:3, :3], T[:3, 3])
+    if fr is None:
+        return float('nan')
+    _, w, _, n, m, ca, _ = fr
+    u = rot_z(q[0]) @ rot_y(q[1]) @ np.array([0.0, 0.0, 1.0])
+    v = u - ca * w
+    return math.atan2(float(v @ m), float(v @ n))
+
+
+def _score(g: SrsGeometry, Q: np.ndarray, q_seed: Optional[np.ndarray]) -> np.ndarray:
+    """Return the criterion (higher is better) of (..., 7) configurations; NaN rows -> -inf."""
+    span = g.upper - g.lower
+    margin = np.min(np.minimum(Q - g.lower, g.upper - Q) / span, axis=-1)
+    if q_seed is None:
+        score = margin
+    else:
+        dist = np.sqrt(np.sum((Q - q_seed) ** 2, axis=-1))
+        # feasible solutions rank by closeness to the seed, all above any infeasible one
+        score = np.where(margin >= -1e-12, 10.0 - dist, margin - 10.0)
+    return np.where(np.isnan(score), -np.inf, score)
+
+
+def search_swivel(model, T_target: np.ndarray, q_seed=None):
+    """
+    Return (Q (8, 7), psi (8,), score (8,)): the best solution of each branch over the swivel.
+
+    Coarse grid of ``_GRID`` angles, then two finer grids around each branch's best. Without
+    q_seed the criterion is the normalised limit margin (> 0 inside the limits); with it, the
+    distance to q_seed among in-limit solutions.
+    """
+    g = geometry(model)
+    seed = None if q_seed is None else np.asarray(q_seed, dtype=float)
+    psi = np.linspace(-np.pi, np.pi, _GRID, endpoint=False)
+    Q = solve_swivel(model, T_target, psi)                       # (G, 8, 7)
+    sc = _score(g, Q, seed)                                      # (G, 8)
+    best = np.argmax(sc, axis=0)
+    br = np.arange(8)
+    best_psi, best_q, best_sc = psi[best], Q[best, br], sc[best, br]
+    half = 2.0 * np.pi / _GRID
+    fr = _frame(g, np.asarray(T_target, float)[:3, :3], np.asarray(T_target, float)[:3, 3])
+    if fr is None:
+        return best_q, best_psi, best_sc
+    signs = np.repeat(_SIGNS, _FINE, axis=0)                     # (8 * F, 3)
+    for _ in range(2):
+        offs = np.linspace(-half, half, _FINE)
+        P = (best_psi[:, None] + offs[None, :])                  # (8, F)
+        Qf = _solve(g, fr, np.asarray(T_target, float)[:3, :3], P.reshape(-1),
+                    signs).reshape(8, _FINE, 7)
+        scf = _score(g, Qf, seed)                                # (8, F)
+        k = np.argmax(scf, axis=1)
+        better = scf[br, k] > best_sc
+        best_psi = np.where(better, P[br, k], best_psi)
+        best_q = np.where(better[:, None], Qf[br, k], best_q)
+        best_sc = np.where(better, scf[br, k], best_sc)
+        half = 2.0 * half / (_FINE - 1)
+    return best_q, best_psi, best_sc
+
+
+def candidates(model, T_target: np.ndarray, mode: str, q_seed=None) -> np.ndarray:
+    """
+    Return one solution per branch (k <= 8, 7), its swivel chosen by the secondary criterion.
+
+    'full'/'pitch': the whole pose; 'position': the same for 11 tool orientations (tool z along
+    shoulder -> target and tilted 60 deg from it, and along +-x, +-y, +-z turned to the target
+    azimuth), as starting points for refinement.
+    """
+    T = np.asarray(T_target, dtype=float)
+    if mode in ('full', 'pitch'):
+        Q, _, sc = search_swivel(model, T, q_seed)
+        return Q[np.isfinite(sc)]
+    if mode != 'position':
+        raise ValueError(f'unknown IK mode {mode!r}')
+    g = geometry(model)
+    p = T[:3, 3]
+    a = math.atan2(p[1], p[0]) if p[0] * p[0] + p[1] * p[1] > 1e-24 else 0.0
+    from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
+    # tool z along +-x, +-y, +-z (facing the target azimuth), then the radial family below
+    orientations = [rot_z(a) @ R for R in (np.eye(3), rot_y(math.pi), rot_y(math.pi / 2),
+                                           rot_y(-math.pi / 2), rot_x(math.pi / 2),
+                                           rot_x(-math.pi / 2))]
+    radial = p - np.array([0.0, 0.0, g.d1])
+    if np.linalg.norm(radial) > 1e-9:
+        # tool z along shoulder -> target: the wrist point then lies on that line (best reach)
+        z = radial / np.linalg.norm(radial)
+        x = np.cross([0.0, 1.0, 0.0], z) if abs(z[1]) < 0.9 else np.cross([1.0, 0.0, 0.0], z)
+        x /= np.linalg.norm(x)
+        Rr = np.column_stack([x, np.cross(z, x), z])
+        orientations[:0] = [Rr, Rr @ rot_x(math.pi / 3), Rr @ rot_x(-math.pi / 3),
+                            Rr @ rot_y(math.pi / 3), Rr @ rot_y(-math.pi / 3)]
+    out = []
+    for R in orientations:
+        Tk = np.eye(4)
+        Tk[:3, :3], Tk[:3, 3] = R, p
+        Q, _, sc = search_swivel(model, Tk, q_seed)
+        out.append(Q[np.isfinite(sc)])
+    return np.concatenate(out, axis=0)
+
+
+def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
+    """Explain in words why a target has no closed-form candidate ('' if unknown)."""
+    g = geometry(model)
+    T = np.asarray(T_target, dtype=float)
+    if mode == 'position':
+        d = float(np.linalg.norm(T[:3, 3] - np.array([0.0, 0.0, g.d1])))
+        reach = g.d3 + g.d5 + g.d7
+        return f'target is {d - reach:.4g} m beyond reach' if d > reach else ''
+    W = T[:3, 3] - g.d7 * T[:3, 2]
+    L = float(np.linalg.norm(W - np.array([0.0, 0.0, g.d1])))
+    if L > g.d3 + g.d5:
+        return (f'wrist point is {L - g.d3 - g.d5:.4g} m beyond reach of the shoulder '
+                f'(|W - S| = {L:.4g} m > d3 + d5)')
+    if L < abs(g.d3 - g.d5):
+        return f'wrist point is {abs(g.d3 - g.d5) - L:.4g} m too close to the shoulder'
+    return ''
+
+
+__all__ = ['candidates', 'unreachable_reason', 'geometry', 'solve_swivel', 'swivel_angle',
+           'search_swivel', 'SrsGeometry', 'complete']
