@@ -1,0 +1,108 @@
+"""
+Run every benchmark of this folder in one go and write one Markdown table and one JSON file.
+
+Each ``benchmarks/bench_<name>.py`` exposes ``run(quick: bool) -> dict``; a dict may carry a
+``markdown`` entry (its own table) and anything else as figures. Output:
+``benchmarks/results/summary.md`` and ``benchmarks/results/summary.json``, with the date and
+the machine. Usage: ``python benchmarks/run_all.py [--quick] [--only kinematics,ik_service]``.
+"""
+import argparse
+import datetime
+import importlib.util
+import json
+import os
+import platform
+import sys
+import time
+import traceback
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ORDER = ['kinematics', 'robots', 'sim_driver', 'ik_service', 'recorder', 'client', 'robustness']
+
+
+def _machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open('/proc/cpuinfo') as f:
+            for line in f:
+                if line.startswith('model name'):
+                    cpu = line.split(':', 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f'{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}'
+
+
+def _load(name):
+    path = os.path.join(HERE, f'bench_{name}.py')
+    spec = importlib.util.spec_from_file_location(f'bench_{name}', path)
+    module = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, HERE)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _flat_table(name, figures) -> str:
+    rows = [f'| {k} | {v} |' for k, v in _flatten(figures).items()]
+    return '\n'.join([f'| {name} | value |', '| --- | --- |', *rows])
+
+
+def _flatten(d, prefix=''):
+    out = {}
+    for k, v in d.items():
+        key = f'{prefix}{k}'
+        if isinstance(v, dict):
+            out.update(_flatten(v, key + '.'))
+        elif isinstance(v, float):
+            out[key] = f'{v:.4g}'
+        elif isinstance(v, (list, tuple)) and len(v) > 8:
+            continue
+        else:
+            out[key] = v
+    return out
+
+
+def main(argv=None) -> int:
+    """Run the benchmarks and write the summary files."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--quick', action='store_true', help='reduced sizes (a smoke run)')
+    parser.add_argument('--only', default='', help='comma-separated benchmark names')
+    options = parser.parse_args(argv)
+    present = [n for n in ORDER if os.path.isfile(os.path.join(HERE, f'bench_{n}.py'))]
+    present += sorted(f[6:-3] for f in os.listdir(HERE)
+                      if f.startswith('bench_') and f.endswith('.py') and f[6:-3] not in present)
+    names = [n for n in present if not options.only or n in options.only.split(',')]
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')
+    results, sections, failed = {}, [], []
+    for name in names:
+        print(f'=== {name} ===', flush=True)
+        t0 = time.monotonic()
+        try:
+            figures = _load(name).run(quick=options.quick)
+        except Exception:  # report and continue with the others
+            traceback.print_exc()
+            failed.append(name)
+            results[name] = {'error': traceback.format_exc(limit=3)}
+            sections.append(f'## {name}\n\nFAILED (see the log)\n')
+            continue
+        figures = dict(figures or {})
+        figures.setdefault('wall_time_s', round(time.monotonic() - t0, 1))
+        results[name] = figures
+        table = figures.get('markdown') or _flat_table(name, {
+            k: v for k, v in figures.items() if k != 'markdown'})
+        sections.append(f'## {name}\n\n{table}\n')
+        print(table, flush=True)
+    header = (f'# px100_control benchmarks\n\nRun {stamp} on {_machine()}'
+              f'{" (quick)" if options.quick else ""}.\n')
+    os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
+    with open(os.path.join(HERE, 'results', 'summary.md'), 'w') as f:
+        f.write(header + '\n' + '\n'.join(sections))
+    with open(os.path.join(HERE, 'results', 'summary.json'), 'w') as f:
+        json.dump({'date': stamp, 'machine': _machine(), 'quick': options.quick,
+                   'results': results}, f, indent=2, default=str)
+    print(f'wrote {os.path.join(HERE, "results", "summary.md")}')
+    return 1 if failed else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
