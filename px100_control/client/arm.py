@@ -213,16 +213,40 @@ class InterbotixArmXSInterface:
         """
         self.set_trajectory_time(moving_time, accel_time)
         mt, at = self._times(None, None)
-        previous = list(self.joint_commands)
-        self.joint_commands = [float(p) for p in positions]
-        ok = self._execute(self.joint_names, [self.joint_commands], [mt], at, blocking, mt)
+        target = [float(p) for p in positions]
+        duration = self._feasible_duration(target, mt, at)
+        if duration > mt:
+            self.core.get_node().logwarn(
+                f'A {mt:.2f} s move there exceeds the joint velocity limits: this one takes '
+                f'{duration:.2f} s (the servos would cap the speed the same way).')
+        self.joint_commands = target
+        ok = self._execute(self.joint_names, [target], [duration], at, blocking, duration)
         if not ok:
-            self.joint_commands = previous
-        if self.iterative_update_fk or not ok:
+            self._capture_after_failure()
+        elif self.iterative_update_fk:
             self._update_Tsb()
         return ok
 
     _publish_commands = publish_positions
+
+    def _feasible_duration(self, target, moving_time: float, accel_time: float) -> float:
+        """
+        Return moving_time, or the shortest duration whose trapezoid peak respects the limits.
+
+        Interbotix sends home/sleep (and publish_positions) unchecked and the servos cap the
+        speed; trajectory_server refuses a too-fast goal, so such a move is stretched instead.
+        """
+        q = np.asarray(target, dtype=float)
+        d = np.abs(q - np.asarray(self.joint_commands, dtype=float))
+        if self.core.joint_state_age() < self.core.stale_timeout:
+            d = np.maximum(d, np.abs(q - np.asarray(self.get_joint_positions())))
+        ratio = float(np.max(d / np.asarray(self.group_info.joint_velocity_limits)))
+        cruise = moving_time - min(accel_time, moving_time / 2.0)
+        if ratio <= cruise:
+            return moving_time
+        at = accel_time
+        t_min = ratio + at if ratio >= at else 2.0 * ratio
+        return max(moving_time, 1.02 * t_min)
 
     def _execute(self, names, points, times, accel_time, blocking, duration) -> bool:
         try:
@@ -308,14 +332,20 @@ class InterbotixArmXSInterface:
             return False
         self.set_trajectory_time(moving_time, accel_time)
         mt, at = self._times(None, None)
-        i = self.info_index_map[joint_name]
-        previous = self.joint_commands[i]
-        self.joint_commands[i] = float(position)
+        self.joint_commands[self.info_index_map[joint_name]] = float(position)
         ok = self._execute([joint_name], [[float(position)]], [mt], at, blocking, mt)
         if not ok:
-            self.joint_commands[i] = previous
-        self._update_Tsb()
+            self._capture_after_failure()
+        else:
+            self._update_Tsb()
         return ok
+
+    def _capture_after_failure(self) -> None:
+        """After a failed move the arm is wherever it stopped: command that (when measurable)."""
+        if self.core.joint_state_age() < self.core.stale_timeout:
+            self.capture_joint_positions()
+        else:
+            self._update_Tsb()
 
     # ----------------------------------------------------------- task space
     def set_ee_pose_matrix(self, T_sd: np.ndarray, custom_guess: Optional[Sequence[float]] = None,
@@ -448,8 +478,10 @@ class InterbotixArmXSInterface:
             return False
         planned = self._check_path(path, poses, period)
         if planned < N:
+            why = self.core.last_path_reason if len(path.points) < N else \
+                'a waypoint is off the line, out of limits or too fast'
             log.logwarn(f'Only {100.0 * planned / N:.2f}% of trajectory successfully planned. '
-                        'Trajectory will not be executed.')
+                        f'Trajectory will not be executed ({why}).')
             return False
         points = [list(self._wrap_theta_list(self._path_point(path, i))) for i in range(N)]
         times = [(i + 1) * period for i in range(N)]
@@ -458,7 +490,7 @@ class InterbotixArmXSInterface:
             self.T_sb = poses[-1]
             self.joint_commands = [float(v) for v in points[-1]]
         else:
-            self.capture_joint_positions()
+            self._capture_after_failure()
         self.set_trajectory_time(mt, self.accel_time)
         return ok
 

@@ -45,7 +45,7 @@ from px100_control.models.robot_model import RobotModel
 from px100_control.ros.conversions import matrix_to_pose, stamp_id, stamp_key
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.logging import LoggingSeverity
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -184,6 +184,7 @@ class InterbotixRobotXSCore:
         self._paths: Dict[Tuple[int, int], _Pending] = {}
         self._last_stamp_ns = 0
         self._server_accel: Optional[float] = None
+        self.last_path_reason = ''
         self._param_clients: Dict[str, object] = {}
         self._registers: Dict[str, Dict[str, int]] = {}
         self._modes: Dict[str, Tuple[str, str]] = {}
@@ -210,6 +211,7 @@ class InterbotixRobotXSCore:
         _robot.ensure_spinning(self.robot_node)
         self._wait_for_peers()
         self.js_index_map = {n: i for i, n in enumerate(self.joint_states.name)}
+        self._check_ik_mode()
         self.get_node().loginfo(
             f'\n\tRobot Name: {self.robot_name}\n\tRobot Model: {self.robot_model}')
         self.get_node().loginfo('Initialized InterbotixRobotXSCore!')
@@ -360,6 +362,9 @@ class InterbotixRobotXSCore:
                 p.diag = msg
                 if p.solution is not None:
                     p.event.set()
+            path = self._paths.get(key) if key is not None else None
+            if path is not None:
+                path.diag = msg
 
     def _ik_path_cb(self, msg: JointTrajectory) -> None:
         with self._pending_lock:
@@ -534,6 +539,44 @@ class InterbotixRobotXSCore:
         bad = [r.reason for r in future.result().results if not r.successful]
         return '; '.join(r or 'refused' for r in bad)
 
+    def get_remote_parameter(self, node: str, name: str, timeout: float = 2.0):
+        """Return the value of another node's parameter (None when it cannot be read)."""
+        service = f"/{node.strip('/')}/get_parameters"
+        client = self._param_clients.get(service)
+        if client is None:
+            client = self.robot_node.create_client(GetParameters, service,
+                                                   callback_group=self._cbg)
+            self._param_clients[service] = client
+        if not client.wait_for_service(timeout_sec=timeout):
+            return None
+        future = client.call_async(GetParameters.Request(names=[name]))
+        end = time.monotonic() + timeout
+        while not future.done() and time.monotonic() < end:
+            time.sleep(0.002)
+        if not future.done() or future.result() is None or not future.result().values:
+            return None
+        v = future.result().values[0]
+        return {ParameterType.PARAMETER_BOOL: v.bool_value,
+                ParameterType.PARAMETER_INTEGER: v.integer_value,
+                ParameterType.PARAMETER_DOUBLE: v.double_value,
+                ParameterType.PARAMETER_STRING: v.string_value}.get(v.type)
+
+    def _check_ik_mode(self) -> None:
+        """Warn when ik_service may answer a 4/5-DOF arm with roll-flipped configurations."""
+        if self.model.dof >= 6:
+            return
+        infos = self.robot_node.get_subscriptions_info_by_topic(self.topic('ik/request'))
+        if not infos:
+            return
+        node = f"{infos[0].node_namespace.rstrip('/')}/{infos[0].node_name}"
+        mode = self.get_remote_parameter(node, 'orientation_mode', timeout=1.0)
+        if mode == 'pitch':
+            self.get_node().logwarn(
+                f"{node} runs with orientation_mode 'pitch': for a {self.model.dof}-DOF arm it may "
+                'answer with the roll-flipped ("over the top") configuration, which the '
+                'Interbotix API refuses (pose off by pi). Start it with '
+                "'--ros-args -p orientation_mode:=strict' (bringup=True does this).")
+
     def find_node(self, name: str) -> Optional[str]:
         """Return the full name of a running node called ``name`` (robot namespace first)."""
         found = [(ns, n) for n, ns in self.robot_node.get_node_names_and_namespaces()
@@ -677,9 +720,14 @@ class InterbotixRobotXSCore:
                     f'ik_service did not answer path request {stamp_id(msg.header.stamp)} '
                     f'within {timeout:.1f} s: is ik_service still running under namespace '
                     f"'{self.ns or '/'}'?")
+            if len(pending.solution.points) < len(poses):
+                end = time.monotonic() + 0.3
+                while pending.diag is None and time.monotonic() < end:
+                    time.sleep(0.005)  # the reason comes on ik/status
         finally:
             with self._pending_lock:
                 self._paths.pop(pending.key, None)
+        self.last_path_reason = pending.diag.message if pending.diag is not None else ''
         return pending.solution
 
     # ------------------------------------------------------------- setpoints

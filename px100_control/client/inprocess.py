@@ -14,6 +14,13 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.parameter import Parameter
 
 
+#: parameters the client sets on its own in-process nodes. ik_service 'strict': the whole pose
+#: or nothing, which is what Interbotix's IK guarantees (eomg/ev); in 'pitch' mode a 4-DOF arm
+#: may be answered with the roll-flipped "over the top" configuration (same tool x axis, gripper
+#: upside down), which the client would have to refuse.
+NODE_PARAMETERS = {'ik_service': {'orientation_mode': 'strict'}}
+
+
 class InProcessBringup:
     """
     The robot's nodes running in this process.
@@ -53,6 +60,10 @@ class InProcessBringup:
         if not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
             kwargs = {k: v for k, v in kwargs.items() if k in sig.parameters}
         self.nodes = list(bringup.create_nodes(**kwargs))
+        for node in self.nodes:
+            for name, value in NODE_PARAMETERS.get(node.get_name(), {}).items():
+                if node.has_parameter(name):
+                    node.set_parameters([Parameter(name, value=value)])
         self.executor = MultiThreadedExecutor(context=context)
         for n in self.nodes:
             self.executor.add_node(n)
