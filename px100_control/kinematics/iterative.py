@@ -27,6 +27,7 @@ from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.se3 import log_se3
 
 Vec = List[float]
+_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,9 @@ class Chain:
     py: tuple             # per joint (w, v, w x v, w x (w x v), revolute) as float tuples
     MR: tuple             # M rotation rows
     Mp: tuple             # M translation
+    lo: tuple             # limits as floats
+    hi: tuple
+    wraps: tuple          # revolute joints whose range is (almost) a full turn
 
 
 @functools.lru_cache(maxsize=64)
@@ -66,7 +70,10 @@ def chain(model) -> Chain:
     M = np.asarray(model.M, float)
     return Chain(n=n, w=w, v=v, M=M, lower=np.asarray(model.lower, float),
                  upper=np.asarray(model.upper, float), K=K, K2=K2, Kv=Kv, K2v=K2v, py=py,
-                 MR=tuple(tuple(r) for r in M[:3, :3].tolist()), Mp=tuple(M[:3, 3].tolist()))
+                 MR=tuple(tuple(r) for r in M[:3, :3].tolist()), Mp=tuple(M[:3, 3].tolist()),
+                 lo=tuple(float(x) for x in model.lower), hi=tuple(float(x) for x in model.upper),
+                 wraps=tuple(revolute[i] and float(model.upper[i] - model.lower[i])
+                             >= _TWO_PI - 1e-3 for i in range(n)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -372,8 +379,20 @@ def _secondary(kind: Optional[str], q: Vec, q_nominal: Vec, lo: Vec, hi: Vec) ->
     raise ValueError(f"secondary task must be None, 'nominal' or 'limits', not {kind!r}")
 
 
-def _clip(q: Vec, lo: Vec, hi: Vec) -> Vec:
-    return [a if x < a else b if x > b else x for x, a, b in zip(q, lo, hi)]
+def _project(q: Vec, c: Chain) -> Vec:
+    """
+    Return q inside the joint limits.
+
+    Joints whose range spans (almost) a full turn are wrapped into [lower, lower + 2 pi) first,
+    so an iterate can pass 'behind' such a joint (the px100 waist is limited to +-3.14158 rad)
+    instead of sticking at a limit; then every joint is clipped.
+    """
+    out = []
+    for x, a, b, wrap in zip(q, c.lo, c.hi, c.wraps):
+        if wrap and (x < a or x > b):
+            x = a + (x - a) % _TWO_PI
+        out.append(a if x < a else b if x > b else x)
+    return out
 
 
 def _finish(method, success, q, it, pe, oe, reason='', **details) -> IkResult:
@@ -389,11 +408,48 @@ def _not_converged(method, q, it, pe, oe) -> IkResult:
         f'orientation error {oe:.3g} rad)'))
 
 
+def _dls_step(c: Chain, q: Vec, e: Vec, rows, lam2: float, alpha: float, gain: float,
+              secondary: Optional[str], qn: Vec, check_limits: bool):
+    """
+    Return (dq, dn): the DLS step and the null-space secondary direction (None without one).
+
+    Joints sitting at a limit that the step would push further are locked (their Jacobian
+    column and secondary component removed) and the step recomputed, so a secondary task whose
+    optimum lies on a limit settles there instead of fighting the projection.
+    """
+    n = len(q)
+    locked: list = []
+    dq: Vec = []
+    dn: Optional[Vec] = None
+    for _ in range(n):
+        rows_l = rows if not locked else [
+            [0.0 if j in locked else x for j, x in enumerate(r)] for r in rows]
+        pinv = _dls_apply(rows_l, lam2)
+        dq = [alpha * x for x in pinv(e)]
+        step = dq
+        if secondary is not None:
+            g = _secondary(secondary, q, qn, c.lo, c.hi)
+            if locked:
+                g = [0.0 if j in locked else x for j, x in enumerate(g)]
+            jg = pinv(_matvec(rows_l, g))
+            dn = [x - y for x, y in zip(g, jg)]
+            step = [x + gain * y for x, y in zip(dq, dn)]
+        if not check_limits:
+            return step, dn
+        newly = [j for j in range(n) if j not in locked and not c.wraps[j] and (
+            (q[j] <= c.lo[j] + 1e-12 and step[j] < 0.0)
+            or (q[j] >= c.hi[j] - 1e-12 and step[j] > 0.0))]
+        if not newly:
+            return step, dn
+        locked.extend(newly)
+    return step, dn
+
+
 def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str] = None,
               alpha: float = 1.0, beta: float = 1.0, damping: float = 1e-6,
               max_step: float = 0.5, tol_position: float = 1e-9, tol_orientation: float = 1e-9,
               tol_secondary: float = 1e-8, max_iterations: int = 200,
-              check_limits: bool = True) -> IkResult:
+              check_limits: bool = True, stall_iterations: int = 30) -> IkResult:
     """
     Damped least squares from q0, with an optional null-space secondary task (seed 000 eq. 3).
 
@@ -405,19 +461,23 @@ def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str]
         large errors
     :param max_step: joint step norm limit per iteration [rad]
     :param check_limits: keep every iterate inside the joint limits (projection)
+    :param stall_iterations: stop when the error has not dropped by 1 % for that many
+        iterations (a local minimum: the caller restarts elsewhere)
     :return: IkResult; success when the task errors are within tolerance and, with a secondary
         task, its null-space step is below tol_secondary (``details['secondary_settled']``
         is False when the iterations ran out with only the primary task met: still a success)
     """
     c = chain(model)
-    lo, hi = c.lower.tolist(), c.upper.tolist()
     q = [float(x) for x in q0]
     if check_limits:
-        q = _clip(q, lo, hi)
+        q = _project(q, c)
     qn = [float(x) for x in (model.home if q_nominal is None else q_nominal)]
     met_q = None
     pe = oe = math.inf
     it = 0
+    gain = beta
+    prev = None
+    best_err, best_it = math.inf, 0
     for it in range(max_iterations + 1):
         R, p, Jw, Jv = fk_jacobian_py(c, q)
         pe, oe = task.errors_py(R, p)
@@ -426,28 +486,35 @@ def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str]
             return _finish('dls', True, q, it, pe, oe)
         if it == max_iterations:
             break
+        if pe + oe < 0.99 * best_err:
+            best_err, best_it = pe + oe, it
+        elif met_q is None and it - best_it > stall_iterations:
+            break           # stuck in a local minimum (e.g. on a joint limit): give up early
         e, rows = task.residual_py(R, p, Jw, Jv)
-        e2 = sum(x * x for x in e)
-        pinv = _dls_apply(rows, damping * damping + 0.01 * e2)
-        dq = [alpha * x for x in pinv(e)]
-        if secondary is not None:
-            g = _secondary(secondary, q, qn, lo, hi)
-            jg = pinv(_matvec(rows, g))
-            dn = [beta * (a - b) for a, b in zip(g, jg)]
+        lam2 = damping * damping + 0.01 * sum(x * x for x in e)
+        dq, dn = _dls_step(c, q, e, rows, lam2, alpha, gain, secondary, qn, check_limits)
+        if dn is not None:
             dn_norm = math.sqrt(sum(x * x for x in dn))
             if met:
                 met_q = (list(q), pe, oe)
-                if dn_norm <= tol_secondary:
+                if dn_norm * gain <= tol_secondary:
                     return _finish('dls', True, q, it, pe, oe, secondary_settled=True,
-                                   secondary_step=dn_norm)
-            dq = [a + b for a, b in zip(dq, dn)]
+                                   secondary_step=dn_norm * gain)
+            # next gain: Barzilai-Borwein secant estimate of the null-space curvature (the
+            # self-motion manifold is curved: a fixed gain can oscillate), safeguarded
+            if prev is not None:
+                s_ = [x - y for x, y in zip(q, prev[0])]
+                y_ = [x - y for x, y in zip(prev[1], dn)]
+                sy = sum(x * y for x, y in zip(s_, y_))
+                ss = sum(x * x for x in s_)
+                gain = min(1.5 * beta, max(0.05 * beta, ss / sy)) if sy > 1e-300 else beta
+            prev = (list(q), dn)
         norm = math.sqrt(sum(x * x for x in dq))
         if norm > max_step:
             k = max_step / norm
             dq = [x * k for x in dq]
-        q = [a + b for a, b in zip(q, dq)]
-        if check_limits:
-            q = _clip(q, lo, hi)
+        q = _project([a + b for a, b in zip(q, dq)], c) if check_limits else [
+            a + b for a, b in zip(q, dq)]
         if not all(math.isfinite(x) for x in q):
             return IkResult(False, None, method='dls', iterations=it,
                             reason='iteration diverged (non-finite joint values)')
@@ -467,10 +534,9 @@ def solve_newton(model, task: Task, q0, *, max_step: float = 0.5, alpha: float =
     (exactly seed 003); other tasks use ``Task.residual_py``. Generic over any model.
     """
     c = chain(model)
-    lo, hi = c.lower, c.upper
     q = np.array(q0, dtype=float)
     if check_limits:
-        q = np.clip(q, lo, hi)
+        q = np.array(_project(q.tolist(), c))
     T_target = task.pose()
     pe = oe = math.inf
     it = 0
@@ -499,7 +565,7 @@ def solve_newton(model, task: Task, q0, *, max_step: float = 0.5, alpha: float =
         if norm > max_step:
             dq *= max_step / norm
         if check_limits:
-            dq = np.clip(q + dq, lo, hi) - q
+            dq = np.array(_project((q + dq).tolist(), c)) - q
         q = q + alpha * dq
         if not np.all(np.isfinite(q)):
             return IkResult(False, None, method='newton-raphson', iterations=it,

@@ -33,7 +33,7 @@ from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_batch
 MODES = ('full', 'pitch', 'position')
 METHODS = ('auto', 'analytic', 'dls', 'newton')
 _POLISH_LIMIT = 1e-6      # analytic candidates this close get a few DLS iterations of polish
-_RESTARTS = 8             # iterative starts: seed, nominal, home, sleep, then random in limits
+_RESTARTS = 24            # iterative starts (see _starts)
 
 
 def _wrap(a: float) -> float:
@@ -169,10 +169,12 @@ def _limit_reason(model, Q: np.ndarray) -> str:
                 f' (best of {len(Q)} solutions)' if len(Q) > 1 else ''))
 
 
-def _order(solutions: List[np.ndarray], q_seed: np.ndarray) -> List[np.ndarray]:
+def _order(solutions: List[np.ndarray], q_seed: np.ndarray,
+           same: float = 1e-9) -> List[np.ndarray]:
+    """Return the distinct solutions (max difference > same) sorted by distance to q_seed."""
     out: List[np.ndarray] = []
     for q in sorted(solutions, key=lambda s: float(np.sum((s - q_seed) ** 2))):
-        if all(np.abs(q - o).max() > 1e-9 for o in out):
+        if all(np.abs(q - o).max() > same for o in out):
             out.append(q)
     return out
 
@@ -180,11 +182,24 @@ def _order(solutions: List[np.ndarray], q_seed: np.ndarray) -> List[np.ndarray]:
 def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
               max_iterations, module) -> IkResult:
     name = f'analytic:{model.analytic_ik}'
-    C = np.asarray(module.candidates(model, T_eff, mode), dtype=float).reshape(-1, model.dof)
+    if mode == 'position' and hasattr(module, 'position_solutions'):
+        # the module minimises |q - q_nominal| over the free angle itself (exact secondary task)
+        C = np.asarray(module.position_solutions(model, T_eff, q_nominal,
+                                                 check_limits=check_limits),
+                       dtype=float).reshape(-1, model.dof)
+        if len(C) == 0:
+            G = np.asarray(module.candidates(model, T_eff, mode), dtype=float).reshape(
+                -1, model.dof)
+            if len(G):     # reachable, but only outside the joint limits
+                return IkResult(False, None, [], name, 0, reason=_limit_reason(
+                    model, _wrap_into_limits(model, G)), details={'candidates': int(len(G))})
+    else:
+        C = np.asarray(module.candidates(model, T_eff, mode), dtype=float).reshape(
+            -1, model.dof)
     C = C[np.all(np.isfinite(C), axis=1)]
     if len(C) and check_limits:
         C = _wrap_into_limits(model, C)
-    if mode == 'position':
+    if mode == 'position' and not hasattr(module, 'position_solutions'):
         return _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
                                 max_iterations, name, module, T_eff)
     c = chain(model)
@@ -275,7 +290,7 @@ def _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol
             sols.append(res.q)
     if not sols:
         return IkResult(False, None, [], name, iters, reason=last.reason, details={})
-    sols = _order(sols, q_seed)
+    sols = _order(sols, q_seed, same=1e-6)
     c = chain(model)
     T, _ = fk_and_jacobian(c, sols[0])
     pe, oe = task.errors(T)
@@ -283,18 +298,25 @@ def _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol
                     {'candidates': int(len(C)), 'secondary': 'nominal'})
 
 
-def _starts(model, q_seed, q_nominal):
-    """Yield distinct iterative starts: seed, nominal, home, sleep, then random in limits."""
-    seen: list = []
-    rng = None
+def _starts(model, q_seed, q_nominal, azimuth=None):
+    """
+    Yield distinct iterative starts: the seed, nominal, home and sleep poses, the seed with the
+    first joint turned toward the target (azimuth, azimuth + pi; or +-120 deg as Interbotix
+    does), then random configurations in the limits (fixed RNG: deterministic).
+    """
     lo, hi = np.asarray(model.lower, float), np.asarray(model.upper, float)
-    fixed = [q_seed, q_nominal, model.home, model.sleep]
+    fixed = [np.asarray(x, float) for x in (q_seed, q_nominal, model.home, model.sleep)]
+    if model.joint_types[0] != 'prismatic':
+        turns = ([azimuth, azimuth + math.pi] if azimuth is not None
+                 else [q_seed[0] + 2 * math.pi / 3, q_seed[0] - 2 * math.pi / 3])
+        for t in turns:
+            s = np.array(q_seed, float)
+            s[0] = _wrap(t)
+            fixed.append(np.clip(s, lo, hi))
+    rng = np.random.default_rng(0)
+    seen: list = []
     for k in range(_RESTARTS):
-        if k < len(fixed):
-            s = np.asarray(fixed[k], float)
-        else:
-            rng = rng or np.random.default_rng(0)
-            s = rng.uniform(lo, hi)
+        s = fixed[k] if k < len(fixed) else rng.uniform(lo, hi)
         if any(np.abs(s - u).max() <= 1e-6 for u in seen):
             continue
         seen.append(s)
@@ -305,7 +327,8 @@ def _iterative(model, task, method, q_seed, q_nominal, check_limits, tol_p, tol_
                max_iterations) -> IkResult:
     secondary = 'nominal' if task.kind == 'position' else None
     total, tried, best = 0, 0, None
-    for s in _starts(model, q_seed, q_nominal):
+    azimuth = target_azimuth(model, task.p) if model.joint_types[0] != 'prismatic' else None
+    for s in _starts(model, q_seed, q_nominal, azimuth):
         tried += 1
         if method == 'newton':
             res = solve_newton(model, task, s, tol_position=tol_p, tol_orientation=tol_o,

@@ -285,6 +285,117 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     return np.array(out, dtype=float).reshape(-1, 4)
 
 
+def _branch(g: Px100Geometry, P0: float, P1: float, P2: float, a: float, back: bool,
+            sgn: float, pitch: float) -> Optional[tuple]:
+    """Return the one solution of a branch (waist side, elbow sign) at a pitch, or None."""
+    if back:
+        t1, phi = _wrap(a + math.pi), math.pi - pitch - g.mu
+    else:
+        t1, phi = _wrap(a), pitch - g.mu
+    out: list = []
+    _planar(g, t1, phi, P0, P1, P2, out)
+    if not out:
+        return None
+    if len(out) == 1:
+        return out[0]
+    return out[0] if sgn > 0 else out[1]
+
+
+def _refine_pitch(f, x0: float, step: float, tol: float):
+    """
+    Minimise f(x) -> (cost, q) on [x0 - step, x0 + step]; return the best q.
+
+    Safeguarded Newton on central differences (quadratic convergence), falling back to
+    golden-section search when the curvature is not positive or a step leaves the bracket.
+    """
+    lo_x, hi_x = x0 - step, x0 + step
+    x, (fx, qx) = x0, f(x0)
+    h = 1e-5
+    for _ in range(12):
+        fp, fm = f(x + h)[0], f(x - h)[0]
+        d1, d2 = (fp - fm) / (2 * h), (fp - 2 * fx + fm) / (h * h)
+        if not (math.isfinite(d1) and math.isfinite(d2)) or d2 <= 0.0:
+            break
+        nx = x - d1 / d2
+        if not lo_x <= nx <= hi_x:
+            break
+        fn, qn = f(nx)
+        if fn > fx + 1e-12 * (1.0 + fx):
+            break
+        done = abs(nx - x) < max(tol, 1e-10)     # central differences: ~1e-11 noise
+        x, fx, qx = nx, fn, qn
+        if done:
+            return qx
+    # golden-section fallback (also lands on a joint-limit boundary)
+    invphi = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo_x, hi_x
+    x1, x2 = b - invphi * (b - a), a + invphi * (b - a)
+    f1, f2 = f(x1)[0], f(x2)[0]
+    while b - a > tol:
+        if f1 <= f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - invphi * (b - a)
+            f1 = f(x1)[0]
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + invphi * (b - a)
+            f2 = f(x2)[0]
+    cands = [f(a), f(b), (fx, qx)]
+    best = min(cands, key=lambda t: t[0])
+    return best[1]
+
+
+def position_solutions(model, T_target: np.ndarray, q_nominal, check_limits: bool = True,
+                       grid: int = 720, tol: float = 1e-12) -> np.ndarray:
+    """
+    Return (k, 4) position-only solutions, the free pitch chosen by the secondary task.
+
+    For each branch (waist a / a + pi, elbow sign) the pitch minimises |q(pitch) - q_nominal|
+    over the in-limit part of the branch (the fixed points of seed 000 eq. 3; a minimum on a
+    joint limit is kept on the limit): grid search, then golden-section refinement to ``tol``.
+    Without ``check_limits`` the limits are ignored.
+    """
+    g = geometry(model)
+    T = np.asarray(T_target, dtype=float)
+    P0, P1, P2 = g.to_arm_frame(T[:3, 3])
+    a = math.atan2(P1, P0) if P0 * P0 + P1 * P1 > 1e-24 else 0.0
+    qn = np.asarray(q_nominal, dtype=float)
+    if check_limits:
+        lo, hi = np.asarray(g.lower) - 1e-12, np.asarray(g.upper) + 1e-12
+    else:
+        lo, hi = np.full(4, -np.inf), np.full(4, np.inf)
+    pitches = -math.pi + _TWO_PI * np.arange(grid) / grid
+    ones = np.ones(grid)
+    p = T[:3, 3]
+    Q, geo = batch_candidates(model, p[0] * ones, p[1] * ones, p[2] * ones, pitches)
+    inside = np.all((Q >= lo) & (Q <= hi), axis=2)
+    cost = np.sum((Q - qn) ** 2, axis=2)                      # (grid, 4)
+    # neighbour rules: where a branch ends geometrically (straight elbow) the self-motion
+    # manifold continues on the other elbow branch, so that end is not a minimum (-inf);
+    # a joint limit is a real boundary (+inf): a minimum there stays on the limit
+    view = np.where(geo, np.where(inside, cost, np.inf), -np.inf)
+    qn_t = tuple(float(x) for x in qn)
+    lo_t, hi_t = tuple(lo), tuple(hi)
+
+    def f(back, sgn, pitch):
+        q = _branch(g, P0, P1, P2, a, back, sgn, pitch)
+        if q is None or any(x < lo_t[i] or x > hi_t[i] for i, x in enumerate(q)):
+            return math.inf, None
+        return sum((x - y) ** 2 for x, y in zip(q, qn_t)), q
+
+    out = []
+    step = _TWO_PI / grid
+    for j in range(4):
+        back, sgn = j >= 2, (1.0 if j % 2 == 0 else -1.0)
+        cj = view[:, j]
+        left, right = np.roll(cj, 1), np.roll(cj, -1)
+        for k in np.nonzero(geo[:, j] & inside[:, j] & (cj <= left) & (cj <= right))[0]:
+            best = _refine_pitch(lambda x: f(back, sgn, x), float(pitches[k]), step, tol)
+            if best is not None:
+                out.append(best)
+    return np.array(out, dtype=float).reshape(-1, 4)
+
+
 def _reach_interval(g: Px100Geometry) -> Tuple[float, float]:
     return abs(g.Lr - g.L3), g.Lr + g.L3
 
