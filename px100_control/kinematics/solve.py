@@ -300,9 +300,11 @@ def _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol
 
 def _starts(model, q_seed, q_nominal, azimuth=None):
     """
-    Yield distinct iterative starts: the seed, nominal, home and sleep poses, the seed with the
-    first joint turned toward the target (azimuth, azimuth + pi; or +-120 deg as Interbotix
-    does), then random configurations in the limits (fixed RNG: deterministic).
+    Yield distinct iterative starts.
+
+    The seed, nominal, home and sleep poses, the seed with the first joint turned toward the
+    target (azimuth, azimuth + pi; or +-120 deg as Interbotix does), then random
+    configurations in the limits (fixed RNG: deterministic).
     """
     lo, hi = np.asarray(model.lower, float), np.asarray(model.upper, float)
     fixed = [np.asarray(x, float) for x in (q_seed, q_nominal, model.home, model.sleep)]

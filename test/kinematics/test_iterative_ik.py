@@ -20,7 +20,7 @@ def px100():
 
 @pytest.fixture(scope='module')
 def px100_iterative(px100):
-    """The px100 without its analytic solver (forces the iterative path)."""
+    """Return the px100 without its analytic solver (forces the iterative path)."""
     return dataclasses.replace(px100, name='px100_no_analytic', analytic_ik=None)
 
 
@@ -93,7 +93,7 @@ def _best_distance_over_pitch(px100, p, q_nom, n=3600):
 
 
 def test_position_mode_free_pitch_is_chosen_by_the_secondary_task(px100):
-    """Position mode: the pitch minimises |q - q_nominal| (seed 000 V.8), checked by brute force."""
+    """Position mode: the pitch minimises |q - q_nominal| (seed 000 V.8); brute-force check."""
     rng = np.random.default_rng(23)
     for q_nom in (px100.home, np.array([0.0, -1.0, 0.8, 0.6])):
         for q0 in px100.random_configurations(6, rng):

@@ -34,7 +34,7 @@ def test_alternative_models_declared(px100):
 
 
 def test_urdf_fk_equals_poe_model(px100, configs):
-    """The URDF's own forward kinematics (yourdfpy) equals the PoE model built from the same URDF."""
+    """The URDF's own forward kinematics (yourdfpy) equals the PoE model built from it."""
     yourdfpy = pytest.importorskip('yourdfpy')
     urdf = yourdfpy.URDF.load(io.StringIO(px100.urdf_xml), build_scene_graph=True,
                               load_meshes=False, load_collision_meshes=False)

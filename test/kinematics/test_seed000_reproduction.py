@@ -1,6 +1,8 @@
 """
-Seed 000's printed numbers, reproduced with its own model (mm: L1 = 89.54, Lm = 35, L2 = L3 = 100,
-L4 = 109), and its model cross-checked against the URDF px100 with the real lengths.
+Seed 000's printed numbers, reproduced with its own model.
+
+The seed works in mm: L1 = 89.54, Lm = 35, L2 = L3 = 100, L4 = 109. Its model with the real
+lengths is also cross-checked against the URDF px100.
 """
 import math
 
@@ -57,7 +59,9 @@ def test_unreachable_returns_empty():
 @pytest.mark.parametrize('case', ['first', 'second'])
 def test_iterative_algorithm_printed_results(case):
     """
-    V.8 runs: 35 iterations -> [1.10714871 -0.68382443 1.45740347 0.10058747] (psi 0.874);
+    Reproduce the two V.8 runs of the iterative algorithm.
+
+    35 iterations -> [1.10714871 -0.68382443 1.45740347 0.10058747] (psi 0.874);
     47 iterations -> [-2.48e-10 -1.23412154 1.23412164 -1.87e-07]. Reproduced exactly with the
     stop tolerance 1e-7 (the listing says 1e-11; see module docstring).
     """
