@@ -69,6 +69,7 @@ class InterbotixArmXSInterface:
                  moving_time: float = 2.0, accel_time: float = 0.3,
                  iterative_update_fk: bool = True) -> None:
         self.core = core
+        self.last_error = ''
         self.robot_model = robot_model
         self.group_name = group_name
         self.iterative_update_fk = iterative_update_fk
@@ -83,9 +84,9 @@ class InterbotixArmXSInterface:
             self.core.get_node().logfatal(message)
             raise InterbotixException(message)
         if self.group_info.profile_type != 'time':
-            self.core.get_node().logwarn(f"Group '{group_name}' profile_type not set to 'time'.")
+            self._warn(f"Group '{group_name}' profile_type not set to 'time'.")
         if self.group_info.mode != 'position':
-            self.core.get_node().logwarn(
+            self._warn(
                 f"Group '{group_name}' operating mode not set to 'position'.")
         n = self.group_info.num_joints
         self.joint_names: List[str] = list(self.group_info.joint_names)
@@ -106,6 +107,16 @@ class InterbotixArmXSInterface:
             'Time-Based-Profile')
         self.core.get_node().loginfo('Initialized InterbotixArmXSInterface!')
 
+    def _warn(self, message: str) -> None:
+        """Log a warning and remember it as ``last_error``."""
+        self.last_error = message
+        self.core.get_node().logwarn(message)
+
+    def _error(self, message: str) -> None:
+        """Log an error and remember it as ``last_error`` (px100_control extension)."""
+        self.last_error = message
+        self.core.get_node().logerror(message)
+
     # --------------------------------------------------------------- timing
     def set_trajectory_time(self, moving_time: Optional[float] = None,
                             accel_time: Optional[float] = None) -> None:
@@ -119,8 +130,8 @@ class InterbotixArmXSInterface:
         if moving_time is not None:
             mt = _finite(moving_time)
             if mt is None or mt <= 0.0:
-                self.core.get_node().logerror(f'moving_time must be > 0 s, got {moving_time!r}; '
-                                              'keeping the previous one.')
+                self._error(f'moving_time must be > 0 s, got {moving_time!r}; '
+                            'keeping the previous one.')
             elif mt != self.moving_time:
                 self.moving_time = mt
                 self.core.robot_set_motor_registers('group', self.group_name, 'Profile_Velocity',
@@ -128,8 +139,8 @@ class InterbotixArmXSInterface:
         if accel_time is not None:
             at = _finite(accel_time)
             if at is None or at < 0.0:
-                self.core.get_node().logerror(f'accel_time must be >= 0 s, got {accel_time!r}; '
-                                              'keeping the previous one.')
+                self._error(f'accel_time must be >= 0 s, got {accel_time!r}; '
+                            'keeping the previous one.')
             elif at != self.accel_time:
                 self.accel_time = at
                 self.core.robot_set_motor_registers('group', self.group_name,
@@ -216,7 +227,7 @@ class InterbotixArmXSInterface:
         target = [float(p) for p in positions]
         duration = self._feasible_duration(target, mt, at)
         if duration > mt:
-            self.core.get_node().logwarn(
+            self._warn(
                 f'A {mt:.2f} s move there exceeds the joint velocity limits: this one takes '
                 f'{duration:.2f} s (the servos would cap the speed the same way).')
         self.joint_commands = target
@@ -252,14 +263,14 @@ class InterbotixArmXSInterface:
         try:
             pending = self.core.send_trajectory(names, points, times, accel_time)
         except InterbotixException as exc:
-            self.core.get_node().logerror(f'Move not sent: {exc}')
+            self._error(f'Move not sent: {exc}')
             return False
         self._last_goal = pending
         if not blocking:
             return True
         ok, reason = self.core.wait_for_goal(pending, self._deadline(duration))
         if not ok:
-            self.core.get_node().logerror(f'Move failed: {reason}')
+            self._error(f'Move failed: {reason}')
         return ok
 
     def wait_for_last_goal(self, timeout: Optional[float] = None) -> bool:
@@ -274,7 +285,7 @@ class InterbotixArmXSInterface:
         ok, reason = self.core.wait_for_goal(
             self._last_goal, self._deadline(self.moving_time) if timeout is None else timeout)
         if not ok:
-            self.core.get_node().logerror(f'Move failed: {reason}')
+            self._error(f'Move failed: {reason}')
         return ok
 
     def last_goal_status(self) -> str:
@@ -294,7 +305,7 @@ class InterbotixArmXSInterface:
         mt, at = self._times(moving_time, accel_time)
         problem = self._limit_problem(joint_positions, mt, at)
         if problem is not None:
-            self.core.get_node().logwarn(f'Joint positions refused: {problem}.')
+            self._warn(f'Joint positions refused: {problem}.')
             return False
         return self.publish_positions(list(np.asarray(joint_positions, dtype=float)),
                                       moving_time, accel_time, blocking)
@@ -322,13 +333,13 @@ class InterbotixArmXSInterface:
         Interbotix). :return: True if commanded (and reached when blocking), else False
         """
         if joint_name not in self.info_index_map:
-            self.core.get_node().logwarn(
+            self._warn(
                 f"Joint '{joint_name}' is not in group '{self.group_name}' {self.joint_names}.")
             return False
         mt, at = self._times(moving_time, accel_time)
         problem = self._limit_problem([position], mt, at, [joint_name])
         if problem is not None:
-            self.core.get_node().logwarn(f'Joint position refused: {problem}.')
+            self._warn(f'Joint position refused: {problem}.')
             return False
         self.set_trajectory_time(moving_time, accel_time)
         mt, at = self._times(None, None)
@@ -367,12 +378,12 @@ class InterbotixArmXSInterface:
             if T.shape != (4, 4) or not np.all(np.isfinite(T)):
                 raise ValueError(f'T_sd must be a finite 4x4 matrix, got shape {T.shape}')
         except (TypeError, ValueError) as exc:
-            self.core.get_node().logwarn(f'No valid pose could be found. Will not execute ({exc})')
+            self._warn(f'No valid pose could be found. Will not execute ({exc})')
             return fallback, False
         try:
             reply = self.core.request_ik(T)
         except InterbotixException as exc:
-            self.core.get_node().logerror(f'No valid pose could be found. Will not execute: {exc}')
+            self._error(f'No valid pose could be found. Will not execute: {exc}')
             return fallback, False
         theta = reply.q
         problem = None
@@ -388,7 +399,7 @@ class InterbotixArmXSInterface:
                 mt, at = self._times(moving_time, accel_time)
                 problem = self._limit_problem(theta, mt, at)
         if problem is not None:
-            self.core.get_node().logwarn(
+            self._warn(
                 f'No valid pose could be found. Will not execute ({problem})')
             return (theta if theta is not None else fallback), False
         if execute:
@@ -441,22 +452,21 @@ class InterbotixArmXSInterface:
         Always blocks. A given moving_time becomes the new default.
         :return: True if the whole line was planned (IK, limits, speed) and executed
         """
-        log = self.core.get_node()
         if self.group_info.num_joints < 6 and (y != 0 or yaw != 0):
-            log.logwarn("'y' and 'yaw' fields must be '0' when working with arms with fewer "
-                        'than 6dof.')
+            self._warn("'y' and 'yaw' fields must be '0' when working with arms with fewer "
+                       'than 6dof.')
             return False
         if moving_time is None:
             moving_time = self.moving_time
         mt = _finite(moving_time)
         period = _finite(wp_period)
         if mt is None or period is None or period <= 0 or mt <= 0:
-            log.logwarn(f'Invalid moving_time {moving_time!r} or wp_period {wp_period!r}.')
+            self._warn(f'Invalid moving_time {moving_time!r} or wp_period {wp_period!r}.')
             return False
         N = int(mt / period + 1e-9)
         if N < 1:
-            log.logwarn(f'moving_time {mt:.3f} s is shorter than wp_period {period:.3f} s: '
-                        'nothing to plan.')
+            self._warn(f'moving_time {mt:.3f} s is shorter than wp_period {period:.3f} s: '
+                       'nothing to plan.')
             return False
         roll0, pitch0, yaw0 = matrix_to_euler_sxyz(self.T_sb[:3, :3])
         T_sy = np.eye(4)
@@ -474,14 +484,14 @@ class InterbotixArmXSInterface:
         try:
             path = self.core.request_ik_path(poses)
         except InterbotixException as exc:
-            log.logerror(f'Trajectory will not be executed: {exc}')
+            self._error(f'Trajectory will not be executed: {exc}')
             return False
         planned = self._check_path(path, poses, period)
         if planned < N:
             why = self.core.last_path_reason if len(path.points) < N else \
                 'a waypoint is off the line, out of limits or too fast'
-            log.logwarn(f'Only {100.0 * planned / N:.2f}% of trajectory successfully planned. '
-                        f'Trajectory will not be executed ({why}).')
+            self._warn(f'Only {100.0 * planned / N:.2f}% of trajectory successfully planned. '
+                       f'Trajectory will not be executed ({why}).')
             return False
         points = [list(self._wrap_theta_list(self._path_point(path, i))) for i in range(N)]
         times = [(i + 1) * period for i in range(N)]

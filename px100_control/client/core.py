@@ -572,8 +572,8 @@ class InterbotixRobotXSCore:
         mode = self.get_remote_parameter(node, 'orientation_mode', timeout=1.0)
         if mode == 'pitch':
             self.get_node().logwarn(
-                f"{node} runs with orientation_mode 'pitch': for a {self.model.dof}-DOF arm it may "
-                'answer with the roll-flipped ("over the top") configuration, which the '
+                f"{node} runs with orientation_mode 'pitch': for a {self.model.dof}-DOF arm it "
+                'may answer with the roll-flipped ("over the top") configuration, which the '
                 'Interbotix API refuses (pose off by pi). Start it with '
                 "'--ros-args -p orientation_mode:=strict' (bringup=True does this).")
 
