@@ -1,5 +1,5 @@
 """
-Every robot is data: the robot files load, match the facts they were written from, and publish a URDF.
+Every robot is data: the robot files load, match their sources and publish a URDF.
 
 The Interbotix expectations below are an independent transcription of
 shared/reference/interbotix_api.md section 6 (not read from the YAML files).
@@ -8,13 +8,12 @@ import io
 import math
 
 import numpy as np
-import pytest
-
 from px100_control.kinematics.iterative import chain, fk_batch
 from px100_control.models.registry import available_robots, load_robot, model_from_spec, \
     read_robot_file
 from px100_control.models.urdf_chain import chain_to_poe, load_urdf
 from px100_control.models.urdf_writer import joint_origins, urdf_from_model
+import pytest
 
 # robot_model names that are part of the interface (issue 7)
 REQUIRED = ['px100', 'rrrp', 'myarm300pi', 'rrrr', 'px150', 'rx150', 'rx200', 'wx200', 'wx250',

@@ -2,9 +2,8 @@
 import math
 
 import numpy as np
-import pytest
-
 from px100_control.kinematics import trig_equations as te
+import pytest
 
 
 def _close_angle(a, b, tol=1e-9):

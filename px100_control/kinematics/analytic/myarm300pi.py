@@ -19,9 +19,9 @@ plane through S-W and the world z axis (world x when S-W is vertical). For a giv
 
 So 8 branches per swivel angle (``solve_swivel``). ``candidates`` chooses the swivel of each
 branch by a 1-D search (a 10 deg grid, then two finer grids around the best): by default the
-secondary criterion is the largest normalised distance to the joint limits (farthest from the
-limits; feasible first); with ``q_seed`` it is the distance to the seed among the in-limit
-solutions. It returns the chosen solution of every branch. It is not complete (a feasible
+secondary criterion is the joint-limit-avoidance cost sum(((q - mid) / span)^2) (farthest from
+the limits; in-limit solutions first); with ``q_seed`` it is the distance to the seed among the
+in-limit solutions. It returns the chosen solution of every branch. It is not complete (a feasible
 swivel interval narrower than the grid can be missed), so ``solve_ik`` falls back to its
 iterative solvers. Modes: 'full' and 'pitch' (a 7-DOF arm reaches the whole pose);
 'position': closed-form solutions for a few tool orientations, as starting points for
@@ -212,15 +212,21 @@ def swivel_angle(model, q) -> float:
 
 
 def _score(g: SrsGeometry, Q: np.ndarray, q_seed: Optional[np.ndarray]) -> np.ndarray:
-    """Return the criterion (higher is better) of (..., 7) configurations; NaN rows -> -inf."""
+    """
+    Return the criterion (higher is better) of (..., 7) configurations; NaN rows -> -inf.
+
+    In-limit solutions always rank above out-of-limit ones (those rank by their worst normalised
+    violation). Among in-limit ones: without a seed, the classic joint-limit-avoidance cost
+    -sum(((q - mid) / span)^2) (Liegeois), i.e. farthest from the limits; with a seed, -|q - seed|.
+    """
     span = g.upper - g.lower
     margin = np.min(np.minimum(Q - g.lower, g.upper - Q) / span, axis=-1)
     if q_seed is None:
-        score = margin
+        mid = 0.5 * (g.upper + g.lower)
+        inner = -np.sum(((Q - mid) / span) ** 2, axis=-1)
     else:
-        dist = np.sqrt(np.sum((Q - q_seed) ** 2, axis=-1))
-        # feasible solutions rank by closeness to the seed, all above any infeasible one
-        score = np.where(margin >= -1e-12, 10.0 - dist, margin - 10.0)
+        inner = -np.sqrt(np.sum((Q - q_seed) ** 2, axis=-1))
+    score = np.where(margin >= -1e-12, 100.0 + inner, margin - 100.0)
     return np.where(np.isnan(score), -np.inf, score)
 
 
@@ -228,9 +234,8 @@ def search_swivel(model, T_target: np.ndarray, q_seed=None):
     """
     Return (Q (8, 7), psi (8,), score (8,)): the best solution of each branch over the swivel.
 
-    Coarse grid of ``_GRID`` angles, then two finer grids around each branch's best. Without
-    q_seed the criterion is the normalised limit margin (> 0 inside the limits); with it, the
-    distance to q_seed among in-limit solutions.
+    Coarse grid of ``_GRID`` angles, then two finer grids around each branch's best; the
+    criterion is ``_score`` (in-limit first; then away from the limits, or close to q_seed).
     """
     g = geometry(model)
     seed = None if q_seed is None else np.asarray(q_seed, dtype=float)

@@ -20,8 +20,8 @@ so the position alone fixes q1..q3 and the approach direction; only the roll q4 
   axis is the one the position dictates; ``unreachable_reason`` says by how much);
 - 'pitch' (``solve_ik``'s <= 4-DOF semantics: position + tool x axis direction): q4 turns x4
   toward the target x axis, reachable when that axis is perpendicular to z4;
-- 'position': q4 = the model's home value (then ``solve_ik``'s null-space task moves it to
-  ``q_nominal``). Units: m, rad.
+- 'position': ``candidates`` gives q4 = the model's home value; the ``position_solutions``
+  hook gives q4 = q_nominal's (exact minimiser of |q - q_nominal|). Units: m, rad.
 """
 from dataclasses import dataclass
 import functools
@@ -82,8 +82,8 @@ def parameters(model) -> RrrrParameters:
     return P
 
 
-def position_solutions(P: RrrrParameters, X: float, Y: float,
-                       Z: float) -> List[Tuple[float, float, float]]:
+def arm_solutions(P: RrrrParameters, X: float, Y: float,
+                  Z: float) -> List[Tuple[float, float, float]]:
     """Return every (q1, q2, q3) [rad] putting the end-effector origin at (X, Y, Z) [m]."""
     Pxy = math.hypot(X, Y)
     q1 = math.atan2(Y, X) if Pxy > 1e-12 else 0.0
@@ -123,7 +123,7 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     if mode not in ('full', 'pitch', 'position'):
         raise ValueError(f'unknown IK mode {mode!r}')
     out = []
-    for q1, q2, q3 in position_solutions(P, *T[:3, 3]):
+    for q1, q2, q3 in arm_solutions(P, *T[:3, 3]):
         if mode == 'position':
             q4 = float(model.home[3])
         else:
@@ -137,12 +137,36 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     return np.array(out, dtype=float).reshape(-1, 4)
 
 
+def position_solutions(model, T_target: np.ndarray, q_nominal=None,
+                       check_limits: bool = True) -> np.ndarray:
+    """
+    Return the exact position-mode solutions (k, 4): every arm branch, q4 = q_nominal's.
+
+    q4 does not move the end-effector origin, so q4 = q_nominal[3] (wrapped into the limits
+    when possible) minimises |q - q_nominal| exactly on every branch.
+    """
+    P = parameters(model)
+    T = np.asarray(T_target, dtype=float)
+    q4 = float((model.home if q_nominal is None else q_nominal)[3])
+    lo, hi = float(model.lower[3]), float(model.upper[3])
+    for shift in (0.0, 2.0 * math.pi, -2.0 * math.pi):
+        if lo <= q4 + shift <= hi:
+            q4 += shift
+            break
+    out = np.array([[q1, q2, q3, q4] for q1, q2, q3 in arm_solutions(P, *T[:3, 3])],
+                   dtype=float).reshape(-1, 4)
+    if check_limits and len(out):
+        inside = np.all((out >= model.lower - 1e-9) & (out <= model.upper + 1e-9), axis=1)
+        out = out[inside]
+    return out
+
+
 def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     """Explain in words why a target has no closed-form candidate ('' if unknown)."""
     P = parameters(model)
     T = np.asarray(T_target, dtype=float)
     X, Y, Z = T[:3, 3]
-    sols = position_solutions(P, X, Y, Z)
+    sols = arm_solutions(P, X, Y, Z)
     if not sols:
         d = math.hypot(math.hypot(X, Y), Z - P.d1)
         reach = P.a2 + math.hypot(P.a3, P.d4)
@@ -168,5 +192,6 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return ''
 
 
-__all__ = ['candidates', 'unreachable_reason', 'parameters', 'position_solutions',
+__all__ = ['candidates', 'unreachable_reason', 'parameters', 'arm_solutions',
+           'position_solutions',
            'seed_fk_position', 'RrrrParameters', 'complete']
