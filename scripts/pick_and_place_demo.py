@@ -77,7 +77,7 @@ class Trace:
         return time.monotonic() - self.t0
 
     def phase(self, label: str) -> None:
-        """Mark the start of a phase (shown in the plots)."""
+        """Mark where a phase starts (labelled in the plots)."""
         with self.lock:
             self.phases.append((self.now(), label))
 

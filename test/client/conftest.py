@@ -6,26 +6,8 @@ trajectory_server (real rclpy nodes over DDS in the test's private domain) and a
 shut down with robot_shutdown() at the end of the module. ``PX100_CLIENT_TEST_CONNECT=1`` runs
 the same tests against nodes that are already running instead.
 """
-import os
-import threading
-import time
-
-import numpy as np
+from client_support import make_bot
 import pytest
-
-#: short moves keep the suite fast
-MOVING_TIME = 0.5
-ACCEL_TIME = 0.1
-
-
-def make_bot(**kwargs):
-    """Construct the robot the tests use (in-process nodes unless told to connect)."""
-    from px100_control.client import InterbotixManipulatorXS
-    kwargs.setdefault('bringup', os.environ.get('PX100_CLIENT_TEST_CONNECT') != '1')
-    kwargs.setdefault('connect_timeout', 30.0)
-    kwargs.setdefault('moving_time', MOVING_TIME)
-    kwargs.setdefault('accel_time', ACCEL_TIME)
-    return InterbotixManipulatorXS('px100', 'arm', 'gripper', **kwargs)
 
 
 @pytest.fixture(scope='module')
@@ -38,47 +20,3 @@ def bot():
         yield robot
     finally:
         robot_shutdown()
-
-
-def wait_until(predicate, timeout: float = 3.0, period: float = 0.01) -> bool:
-    """Poll predicate until it is true or timeout [s] passes; return its last value."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(period)
-    return bool(predicate())
-
-
-class EeSampler:
-    """Sample the measured ee_pose (sim_driver topic) in a background thread."""
-
-    def __init__(self, bot, period: float = 0.01):
-        self.bot, self.period = bot, period
-        self.samples = []
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-
-    def _run(self):
-        last = None
-        while not self._stop.is_set():
-            msg = self.bot.core.ee_pose
-            if msg is not None and msg is not last:
-                p = msg.pose.position
-                self.samples.append((p.x, p.y, p.z))
-                last = msg
-            time.sleep(self.period)
-
-    def __enter__(self):
-        """Start sampling."""
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        """Stop sampling."""
-        self._stop.set()
-        self._thread.join(2.0)
-
-    def array(self) -> np.ndarray:
-        """Return the samples as (k, 3) [m]."""
-        return np.array(self.samples).reshape(-1, 3)

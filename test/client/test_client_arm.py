@@ -6,7 +6,7 @@ Each test states the Interbotix behaviour it checks, or the documented improveme
 import math
 import time
 
-from conftest import ACCEL_TIME, EeSampler, MOVING_TIME, wait_until
+from client_support import ACCEL_TIME, EeSampler, MOVING_TIME, wait_until
 import numpy as np
 from px100_control.kinematics.rotations import matrix_to_euler_sxyz
 import pytest

@@ -1,0 +1,118 @@
+"""
+Lifecycle (robot_startup / robot_shutdown, ROS 1 scripts, in-process bringup) and bounded errors.
+
+A missing driver makes the constructor fail within its connect timeout with a message that names
+what is missing (Interbotix's "Failed to find services under namespace..." is the model); nodes
+that die mid-use make the calls fail within a bounded time with the reason, never hang.
+"""
+import os
+import signal
+import threading
+import time
+
+from client_support import make_bot
+import numpy as np
+from px100_control.client import (get_interbotix_global_node, interbotix_is_up,
+                                  InterbotixException, InterbotixManipulatorXS, robot_shutdown,
+                                  robot_startup)
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def test_missing_driver_fails_fast_with_a_clear_message():
+    """No nodes under the namespace: InterbotixException naming them, within the timeout."""
+    ns = f'px100_missing_{os.getpid()}'
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(InterbotixException) as err:
+            InterbotixManipulatorXS('px100', robot_name=ns, connect_timeout=2.0)
+        elapsed = time.monotonic() - t0
+    finally:
+        robot_shutdown()
+    message = str(err.value)
+    assert f"Failed to find the px100_control nodes under namespace '/{ns}' within 2.0 s" \
+        in message
+    assert f"no joint states on '/{ns}/joint_states' (sim_driver)" in message
+    assert 'trajectory_server' in message and 'ik_service' in message
+    assert 'Is sim_driver' in message and 'bringup=True' in message
+    # 2 s of waiting plus node creation (and a cold robot-model load)
+    assert 2.0 <= elapsed < 6.0, elapsed
+
+
+def test_startup_shutdown_lifecycle(monkeypatch):
+    """robot_startup once (twice raises), shutdown twice is safe, a new robot works after."""
+    bot = make_bot()
+    assert interbotix_is_up()  # spinning from construction on (ROS 1 scripts need it)
+    assert get_interbotix_global_node().get_name() == 'interbotix_robot_manipulation'
+    assert bot.get_node() is get_interbotix_global_node()
+    assert bot.dxl is bot.core
+    robot_startup()
+    with pytest.raises(InterbotixException, match='Startup has already been requested.'):
+        robot_startup()
+    robot_shutdown()
+    assert not interbotix_is_up() and get_interbotix_global_node() is None
+    robot_shutdown()  # nothing up: no error
+
+    # ROS 1 style: bringup from the environment, no robot_startup(), arm without gripper
+    monkeypatch.setenv('PX100_BRINGUP', '1')
+    bot = InterbotixManipulatorXS('px100', gripper_name=None, moving_time=0.5, accel_time=0.1,
+                                  connect_timeout=30.0)
+    try:
+        assert not hasattr(bot, 'gripper')
+        assert bot.arm.set_joint_positions([0.2, -0.2, 0.2, 0.0]) is True
+        np.testing.assert_allclose(bot.arm.get_joint_positions(), [0.2, -0.2, 0.2, 0.0],
+                                   atol=0.005)
+    finally:
+        bot.shutdown()  # the galactic-era name
+    assert get_interbotix_global_node() is None
+
+
+def _stop_later(proc, delay: float):
+    timer = threading.Timer(delay, proc.stop)
+    timer.start()
+    return timer
+
+
+def test_nodes_dying_mid_use_fail_within_bounded_time(node_process):
+    """sim_driver, ik_service, trajectory_server killed one by one: calls fail, with reasons."""
+    ns = f'px100_dies_{os.getpid()}'
+    args = ('--ros-args', '-p', f'robot_name:={ns}')
+    driver = node_process('sim_driver', *args)
+    ik = node_process('ik_service', *args, '-p', 'orientation_mode:=strict')
+    server = node_process('trajectory_server', *args)
+    bot = InterbotixManipulatorXS('px100', robot_name=ns, moving_time=0.5, accel_time=0.1,
+                                  connect_timeout=30.0)
+    try:
+        assert bot.arm.set_joint_positions([0, 0, 0, 0], moving_time=1.0) is True
+        # the driver dies 0.6 s into a 3 s move
+        timer = _stop_later(driver, 0.6)
+        t0 = time.monotonic()
+        ok = bot.arm.set_joint_positions([1.0, 0.3, 0.3, 0.3], moving_time=3.0)
+        elapsed = time.monotonic() - t0
+        timer.join()
+        assert ok is False
+        assert 0.6 <= elapsed < 3.0, elapsed
+        assert 'joint' in bot.arm.last_error and ('sim_driver' in bot.arm.last_error
+                                                  or 'driver' in bot.arm.last_error)
+        t0 = time.monotonic()
+        assert bot.arm.set_joint_positions([0, 0, 0, 0], moving_time=1.0) is False
+        assert time.monotonic() - t0 < 3.0
+        assert bot.arm.go_to_home_pose() is None  # logs the failure, returns None
+
+        ik.stop()
+        t0 = time.monotonic()
+        theta, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15)
+        assert ok is False and len(theta) == 4
+        assert time.monotonic() - t0 < 6.0
+        assert 'ik_service' in bot.arm.last_error
+
+        server.stop()
+        t0 = time.monotonic()
+        assert bot.arm.set_joint_positions([0.1, 0, 0, 0], moving_time=1.0) is False
+        assert time.monotonic() - t0 < 3.0
+        assert 'trajectory_server' in bot.arm.last_error
+    finally:
+        robot_shutdown()
+    for p in (driver, ik, server):
+        assert p.returncode is not None and p.returncode != -signal.SIGKILL
