@@ -15,9 +15,11 @@ measured from the outward (base -> target) direction. Both waist branches realis
 x axis at a given pitch (the back branch, reaching over the top, has its roll flipped by pi).
 Units: m, rad.
 """
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 import functools
 import math
+import os
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -465,10 +467,50 @@ def _reach_words(margin: float, suffix: str) -> str:
 # ---------------------------------------------------------------------------------------------
 
 def _wrap_np(a: np.ndarray) -> np.ndarray:
-    a += math.pi
-    np.remainder(a, _TWO_PI, out=a)
-    a -= math.pi
-    return a
+    """Return a wrapped to [-pi, pi) (floor-based: much faster than np.remainder)."""
+    return a - _TWO_PI * np.floor((a + math.pi) * (1.0 / _TWO_PI))
+
+
+def _branches_np(g: Px100Geometry, x, y, z, pitch):
+    """Yield (q1, q2, q3, q4, exists) arrays for the 4 branches of N targets (see below)."""
+    if not g.frame_is_base:
+        P = (np.stack([x, y, z], axis=-1) - g.origin) @ g.R_F
+        x, y, z = P[:, 0], P[:, 1], P[:, 2]
+    a = np.arctan2(y, x)
+    r = np.sqrt(x * x + y * y)
+    Lr, L3, L4 = g.Lr, g.L3, g.L4
+    inv2 = 1.0 / (2.0 * Lr * L3)
+    const = (Lr * Lr + L3 * L3) * inv2
+    _, _, s3, s4 = g.signs
+    vz = -z - g.v2
+    # tool direction in the plane: front angle pitch + d, back angle pi - pitch + d
+    d = g.g3 - g.mu
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    if d == 0.0:
+        c_front, s_front, c_back, s_back = cp, sp, -cp, sp
+    else:
+        cd, sd = math.cos(d), math.sin(d)
+        c_front, s_front = cp * cd - sp * sd, sp * cd + cp * sd
+        c_back, s_back = -(cp * cd + sp * sd), sp * cd - cp * sd
+    a_back = np.where(a < 0.0, a + math.pi, a - math.pi)
+    off3 = g.g1 - g.g2
+    for u, ca3, sa3, t1, phi in ((r, c_front, s_front, a, pitch - g.mu),
+                                 (-r, c_back, s_back, a_back, (math.pi - g.mu) - pitch)):
+        wu = u - L4 * ca3 - g.u2
+        wv = vz - L4 * sa3
+        c = (wu * wu + wv * wv) * inv2 - const
+        good = np.abs(c) <= 1.0 + _REACH_EPS
+        np.clip(c, -1.0, 1.0, out=c)
+        s = np.sqrt(1.0 - c * c)
+        base = np.arctan2(wv, wu) - g.g1
+        k = np.arctan2(L3 * s, Lr + L3 * c)
+        el = np.arctan2(s, c)
+        for sgn in (1.0, -1.0):
+            p2 = base - k if sgn > 0 else base + k
+            p3 = el + off3 if sgn > 0 else off3 - el
+            p4 = phi - p2 - p3
+            yield (t1, _wrap_np(p2), _wrap_np(p3 if s3 > 0 else -p3),
+                   _wrap_np(p4 if s4 > 0 else -p4), good)
 
 
 def batch_candidates(model, x, y, z, pitch) -> Tuple[np.ndarray, np.ndarray]:
@@ -480,48 +522,18 @@ def batch_candidates(model, x, y, z, pitch) -> Tuple[np.ndarray, np.ndarray]:
     [-pi, pi). Inputs are (N,) float arrays in the base frame [m, rad].
     """
     g = geometry(model)
-    x, y, z, pitch = (np.asarray(a, dtype=float) for a in (x, y, z, pitch))
-    if not g.frame_is_base:
-        P = (np.stack([x, y, z], axis=-1) - g.origin) @ g.R_F
-        x, y, z = P[:, 0], P[:, 1], P[:, 2]
+    x, y, z, pitch = (np.asarray(v, dtype=float) for v in (x, y, z, pitch))
     n = x.shape[0]
     Q = np.empty((n, 4, 4))
     ok = np.empty((n, 4), dtype=bool)
-    a = np.arctan2(y, x)
-    r = np.hypot(x, y)
-    Lr, L3, L4 = g.Lr, g.L3, g.L4
-    inv2 = 1.0 / (2.0 * Lr * L3)
-    const = Lr * Lr + L3 * L3
-    _, _, s3, s4 = g.signs
-    vz = -z - g.v2
-    for b, (u, phi, t1) in enumerate((
-            (r, pitch - g.mu, a),
-            (-r, math.pi - pitch - g.mu, _wrap_np(a + math.pi)))):
-        a3 = phi + g.g3
-        wu = u - L4 * np.cos(a3) - g.u2
-        wv = vz - L4 * np.sin(a3)
-        c = (wu * wu + wv * wv - const) * inv2
-        good = np.abs(c) <= 1.0 + _REACH_EPS
-        np.clip(c, -1.0, 1.0, out=c)
-        s = np.sqrt(1.0 - c * c)
-        base = np.arctan2(wv, wu) - g.g1
-        k = np.arctan2(L3 * s, Lr + L3 * c)
-        el = np.arccos(c)
-        for e, sgn in enumerate((1.0, -1.0)):
-            j = 2 * b + e
-            p2 = base - k if sgn > 0 else base + k
-            p3 = el - g.g2 + g.g1 if sgn > 0 else -el - g.g2 + g.g1
-            p4 = phi - p2 - p3
-            Q[:, j, 0] = t1
-            Q[:, j, 1] = _wrap_np(p2)
-            Q[:, j, 2] = _wrap_np(s3 * p3)
-            Q[:, j, 3] = _wrap_np(s4 * p4)
-            ok[:, j] = good
+    for j, (q1, q2, q3, q4, good) in enumerate(_branches_np(g, x, y, z, pitch)):
+        Q[:, j, 0], Q[:, j, 1], Q[:, j, 2], Q[:, j, 3] = q1, q2, q3, q4
+        ok[:, j] = good
     return Q, ok
 
 
 def solve_batch(model, targets, q_seed=None, check_limits: bool = True,
-                return_all: bool = False, chunk: int = 1 << 16):
+                return_all: bool = False, chunk: int = 1 << 15):
     """
     Return (Q (N, 4), ok (N,)): the best solution of each target, vectorised.
 
@@ -529,40 +541,63 @@ def solve_batch(model, targets, q_seed=None, check_limits: bool = True,
         (N, 4) rows (x, y, z, pitch) in the base frame [m, rad]
     :param q_seed: (4,) the solutions closest to it win (default model.home)
     :param return_all: return (Q (N, 4, 4), ok (N, 4)) with every branch instead
+    Targets on the waist axis (x = y = 0) take waist 0 (a pose's heading is not used here).
     """
+    g = geometry(model)
     targets = np.asarray(targets, dtype=float)
-    if targets.ndim == 3:
-        rows = _pose_rows(model, targets)
-    else:
-        rows = targets
+    rows = _pose_rows(model, targets) if targets.ndim == 3 else targets
     n = rows.shape[0]
-    seed = np.asarray(model.home if q_seed is None else q_seed, dtype=float)
-    lo = np.asarray(model.lower, float) - 1e-9
-    hi = np.asarray(model.upper, float) + 1e-9
+    seed = [float(v) for v in (model.home if q_seed is None else q_seed)]
+    lo = [v - 1e-9 for v in g.lower]
+    hi = [v + 1e-9 for v in g.upper]
     if return_all:
         Q_all = np.empty((n, 4, 4))
         ok_all = np.empty((n, 4), dtype=bool)
-    else:
-        Q_best = np.full((n, 4), np.nan)
-        ok_best = np.zeros(n, dtype=bool)
-    for s in range(0, n, chunk):
-        e = min(n, s + chunk)
-        Q, ok = batch_candidates(model, rows[s:e, 0], rows[s:e, 1], rows[s:e, 2], rows[s:e, 3])
-        if check_limits:
-            ok &= np.all((Q >= lo) & (Q <= hi), axis=2)
-        if return_all:
+        for s in range(0, n, chunk):
+            e = min(n, s + chunk)
+            Q, ok = batch_candidates(model, rows[s:e, 0], rows[s:e, 1], rows[s:e, 2],
+                                     rows[s:e, 3])
+            if check_limits:
+                ok &= np.all((Q >= np.array(lo)) & (Q <= np.array(hi)), axis=2)
             Q_all[s:e], ok_all[s:e] = Q, ok
-            continue
-        d = Q - seed
-        cost = np.einsum('nkj,nkj->nk', d, d)
-        cost[~ok] = np.inf
-        best = np.argmin(cost, axis=1)
-        idx = np.arange(e - s)
-        Q_best[s:e] = Q[idx, best]
-        ok_best[s:e] = ok[idx, best]
-    if return_all:
         return Q_all, ok_all
-    Q_best[~ok_best] = np.nan
+    Q_best = np.empty((n, 4))
+    ok_best = np.empty(n, dtype=bool)
+    cols = [np.ascontiguousarray(rows[:, i]) for i in range(4)]
+
+    def work(s: int) -> None:
+        e = min(n, s + chunk)
+        best_cost = np.full(e - s, np.inf)
+        best = [np.zeros(e - s) for _ in range(4)]
+        for q1, q2, q3, q4, good in _branches_np(g, cols[0][s:e], cols[1][s:e], cols[2][s:e],
+                                                 cols[3][s:e]):
+            qs = (q1, q2, q3, q4)
+            cost = (q1 - seed[0]) ** 2
+            for i in (1, 2, 3):
+                cost += (qs[i] - seed[i]) ** 2
+            valid = good.copy()
+            if check_limits:
+                for i in range(4):
+                    valid &= qs[i] >= lo[i]
+                    valid &= qs[i] <= hi[i]
+            take = valid & (cost < best_cost)
+            np.copyto(best_cost, cost, where=take)
+            for i in range(4):
+                np.copyto(best[i], qs[i], where=take)
+        ok = np.isfinite(best_cost)
+        for i in range(4):
+            Q_best[s:e, i] = np.where(ok, best[i], np.nan)
+        ok_best[s:e] = ok
+
+    starts = range(0, n, chunk)
+    workers = min(len(starts), os.cpu_count() or 1, 8)
+    if workers > 1:
+        # numpy ufuncs release the GIL: chunks run in parallel on the cores
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(work, starts))
+    else:
+        for s in starts:
+            work(s)
     return Q_best, ok_best
 
 
