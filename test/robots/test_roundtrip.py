@@ -152,6 +152,26 @@ def test_solve_ik_position_mode(name):
         assert m.within_limits(res.q)
 
 
+@pytest.mark.parametrize('name', [n for n in available_robots()
+                                  if load_robot(n).analytic_ik in ('interbotix5', 'rrrr')])
+def test_position_mode_exact_secondary_task(name):
+    """
+    Closed-form position mode: the free angles minimise |q - q_nominal| over every branch.
+
+    The generating configuration is one feasible point, so the best returned solution is at
+    least as close to q_nominal as it is.
+    """
+    m = load_robot(name)
+    rng = np.random.default_rng(800)
+    for q in m.random_configurations(30, rng=rng):
+        qn = m.random_configurations(1, rng=rng)[0]
+        T = m.fk(q)
+        res = solve_ik(m, T, mode='position', q_nominal=qn, q_seed=qn)
+        assert res.success and res.method == f'analytic:{m.analytic_ik}', res.reason
+        assert np.linalg.norm(m.fk(res.q)[:3, 3] - T[:3, 3]) <= POSE_TOL
+        assert np.linalg.norm(res.q - qn) <= np.linalg.norm(q - qn) + 1e-9
+
+
 @pytest.mark.parametrize('name', ['rrrp', 'rrrr', 'myarm300pi', 'px150', 'wx250s'])
 def test_unreachable_targets_fail_with_a_reason(name):
     """A target far outside the workspace is a result with a reason, not an exception."""

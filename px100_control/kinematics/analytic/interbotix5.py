@@ -14,9 +14,10 @@ azimuth of W or that + pi (reaching over the top), the planar shoulder/elbow pai
 signs (a type 8 equation, ``trig_equations.solve_type8``): up to 4 candidates.
 
 Modes: 'full' and 'pitch' (``solve.pitch_target`` has already forced the yaw to the target
-azimuth, so both solve the given pose); 'position': the pitch is free: closed-form candidates on
-a grid of pitches (roll 0), which ``solve_ik`` refines with its null-space task toward
-``q_nominal``. Units: m, rad.
+azimuth, so both solve the given pose); 'position': the pitch is free: ``position_solutions``
+minimises |q - q_nominal| exactly on every branch (the first four joints are a px100-family arm,
+solved by ``analytic.px100``; the wrist roll takes its nominal value), and ``candidates`` gives
+the closed-form branches on a grid of pitches (roll 0). Units: m, rad.
 """
 from dataclasses import dataclass
 import functools
@@ -187,6 +188,42 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     return np.array(out, dtype=float).reshape(-1, 5)
 
 
+@functools.lru_cache(maxsize=64)
+def _arm4(model):
+    """Return the 4-joint sub-model (waist + three pitch joints) of a 5-DOF model."""
+    from px100_control.models.robot_model import RobotModel
+    return RobotModel(
+        name=f'{model.name}:arm4', joint_names=tuple(model.joint_names[:4]),
+        joint_types=tuple(model.joint_types[:4]), S_list=np.asarray(model.S_list)[:, :4],
+        M=np.asarray(model.M), lower=np.asarray(model.lower)[:4],
+        upper=np.asarray(model.upper)[:4], velocity_limits=np.asarray(model.velocity_limits)[:4],
+        effort_limits=np.asarray(model.effort_limits)[:4], home=np.asarray(model.home)[:4],
+        sleep=np.asarray(model.sleep)[:4], base_frame=model.base_frame, ee_frame=model.ee_frame)
+
+
+def position_solutions(model, T_target: np.ndarray, q_nominal=None,
+                       check_limits: bool = True) -> np.ndarray:
+    """
+    Return (k, 5) position-only solutions with the exact secondary task toward q_nominal.
+
+    The end effector lies on the wrist_rotate axis, so the position depends on the first four
+    joints only: they form a px100-family arm, solved by ``analytic.px100.position_solutions``
+    (the free pitch minimising |q - q_nominal| on every branch); wrist_rotate = q_nominal's value
+    (wrapped into its limits), which minimises its own term exactly.
+    """
+    from px100_control.kinematics.analytic import px100
+    geometry(model)
+    qn = np.asarray(model.home if q_nominal is None else q_nominal, dtype=float)
+    Q4 = px100.position_solutions(_arm4(model), T_target, qn[:4], check_limits=check_limits)
+    q5 = float(qn[4])
+    lo, hi = float(model.lower[4]), float(model.upper[4])
+    for shift in (0.0, 2.0 * math.pi, -2.0 * math.pi):
+        if lo <= q5 + shift <= hi:
+            q5 += shift
+            break
+    return np.column_stack([np.asarray(Q4, float).reshape(-1, 4), np.full(len(Q4), q5)])
+
+
 def reach_words(g: ArmPlane, T: np.ndarray) -> str:
     """Return why the wrist point of a pose is out of the shoulder/elbow annulus ('' if not)."""
     R, p = T[:3, :3], T[:3, 3]
@@ -224,5 +261,6 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return ''
 
 
-__all__ = ['candidates', 'unreachable_reason', 'geometry', 'plane_geometry', 'ArmPlane',
+__all__ = ['candidates', 'unreachable_reason', 'position_solutions', 'geometry',
+           'plane_geometry', 'ArmPlane',
            'waist_angles', 'planar_solutions', 'complete']

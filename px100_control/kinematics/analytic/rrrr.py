@@ -155,8 +155,13 @@ def position_solutions(model, T_target: np.ndarray, q_nominal=None,
             break
     out = np.array([[q1, q2, q3, q4] for q1, q2, q3 in arm_solutions(P, *T[:3, 3])],
                    dtype=float).reshape(-1, 4)
+    lo_all, hi_all = np.asarray(model.lower), np.asarray(model.upper)
+    for shift in (2.0 * math.pi, -2.0 * math.pi):      # e.g. joint2 spans [-30, 210] deg
+        moved = out + shift
+        better = ((out < lo_all) | (out > hi_all)) & (moved >= lo_all) & (moved <= hi_all)
+        out = np.where(better, moved, out)
     if check_limits and len(out):
-        inside = np.all((out >= model.lower - 1e-9) & (out <= model.upper + 1e-9), axis=1)
+        inside = np.all((out >= lo_all - 1e-9) & (out <= hi_all + 1e-9), axis=1)
         out = out[inside]
     return out
 
