@@ -64,11 +64,13 @@ def parse_cli(description: str, args: Optional[Sequence[str]] = None,
     return options, argv
 
 
-def spin_node(node_factory, args=None, description: str = '', add_arguments=None) -> int:
+def spin_node(node_factory, args=None, description: str = '', add_arguments=None,
+              executor_class=None) -> int:
     """
     Run one node the Jazzy way: init, spin until SIGINT/shutdown, destroy, try_shutdown.
 
     :param node_factory: callable(options) -> Node
+    :param executor_class: (optional) executor type, default MultiThreadedExecutor
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -78,7 +80,7 @@ def spin_node(node_factory, args=None, description: str = '', add_arguments=None
     node = None
     try:
         node = node_factory(options)
-        executor = MultiThreadedExecutor()
+        executor = (executor_class or MultiThreadedExecutor)()
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
