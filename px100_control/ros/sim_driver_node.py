@@ -1,12 +1,465 @@
-"""Placeholder entry point: replaced when its node is built (see the issue tracker)."""
-import sys
+"""
+sim_driver: the simulated joint-state driver (joint dynamics + one PID loop per joint).
+
+A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
+(shared/reference/ros_interfaces.md, sim_driver section). Topics under ``/<robot_name>``:
+
+- pub ``joint_states`` (sensor_msgs/JointState, ``publish_rate``): arm joints, gripper,
+  left_finger, right_finger; position, velocity, effort (N*m; fingers m, m/s, N);
+- pub ``ee_pose`` (geometry_msgs/PoseStamped, same rate, frame ``<robot_name>/base_link``);
+- pub ``robot_description`` (std_msgs/String, transient local), link names ``<robot_name>/...``;
+- sub ``commands/joint_setpoints`` (sensor_msgs/JointState): position (+ optional velocity
+  feed-forward) for any subset of joints, or effort [N*m] for the gripper alone; a refused
+  message is logged and published on ``/diagnostics`` and nothing of it is applied;
+- services ``torque_enable`` (std_srvs/SetBool), ``reset`` (std_srvs/Trigger).
+
+Time. The physics runs at ``control_rate`` in fixed steps, advanced by the elapsed time in chunks
+(no dependence on timer precision):
+
+- ``real_time_factor`` = 1 and ``publish_clock`` false (default): the simulation follows the
+  node clock (wall time, or ``/clock`` when ``use_sim_time`` is true); a ``publish_rate`` timer
+  advances the physics to "now" and publishes; stamps are the node clock.
+- otherwise the driver owns the clock: it advances simulated time at ``real_time_factor`` x wall
+  time (0 or inf: as fast as possible), publishes ``/clock`` (rosgraph_msgs/Clock) at
+  ``clock_rate`` of simulated time, and stamps with simulated time starting at 0, so nodes
+  started with ``use_sim_time:=true`` follow it. ``real_time_factor`` can change live in this
+  mode; the mode itself is chosen at startup.
+
+Parameters (defaults in config/px100.yaml, validated live): ``publish_rate`` [Hz],
+``control_rate`` [Hz], ``real_time_factor``, ``publish_clock``, ``clock_rate`` [Hz],
+``dynamics_divider``, ``object_width`` [m] (an object between the fingers, 0 = none),
+``gains_units`` (read-only: ``si`` or ``dynamixel``: p/i/d as Position P/I/D Gain registers),
+``gains.<joint>.p|i|d|i_clamp|u_clamp|ff_velocity`` for every arm joint and the gripper.
+"""
+import math
+import threading
+import time
+from typing import List, Optional
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from px100_control.control.pid import GAIN_FIELDS, PidGains
+from px100_control.control.simulator import ArmSimulator, default_gains, SimConfig
+from px100_control.errors import Px100Error
+from px100_control.models.urdf_prefix import prefix_urdf
+from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
+                                      robot_name, robot_topic, spin_node)
+from px100_control.ros.conversions import matrix_to_pose
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from std_srvs.srv import SetBool, Trigger
+
+#: physics chunk timer when publish_rate is low, and in clock-master mode [Hz]
+TICK_RATE = 200.0
+#: most simulated time one chunk may integrate before the driver drops time [s]
+MAX_CHUNK = 0.5
+#: wall-time budget of one chunk in clock-master mode [s]
+CHUNK_BUDGET = 0.004
+
+_CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
+                'clock_rate', 'dynamics_divider', 'object_width', 'gains_units')
+
+
+def _time_msg(ns: int):
+    return Time(nanoseconds=int(ns)).to_msg()
+
+
+class SimDriverNode(Node):
+    """The simulated PX100 driver node ('sim_driver'); kwargs go to rclpy Node."""
+
+    def __init__(self, **node_kwargs):
+        super().__init__('sim_driver', **node_kwargs)
+        self.model = declare_robot_parameters(self)
+        dyn = ParameterDescriptor(dynamic_typing=True)
+        self.declare_parameter('publish_rate', 100.0, ParameterDescriptor(
+            description='joint_states / ee_pose rate [Hz]'))
+        self.declare_parameter('control_rate', 1000.0, ParameterDescriptor(
+            description='physics and PID rate [Hz]'))
+        self.declare_parameter('real_time_factor', 1.0, ParameterDescriptor(
+            description='simulated s per wall s; 0 or inf = as fast as possible'))
+        self.declare_parameter('publish_clock', False, ParameterDescriptor(
+            description='own the clock and publish /clock (also when real_time_factor = 1)',
+            read_only=True))
+        self.declare_parameter('clock_rate', 250.0, ParameterDescriptor(
+            description='/clock rate in simulated time [Hz]'))
+        self.declare_parameter('dynamics_divider', 1, ParameterDescriptor(
+            description='re-evaluate the mass matrix and bias forces every k physics steps'))
+        self.declare_parameter('object_width', 0.0, ParameterDescriptor(
+            description='width of an object between the fingers [m], 0 = none'))
+        units = self.declare_parameter('gains_units', 'si', ParameterDescriptor(
+            description="'si' or 'dynamixel' (p/i/d as Position P/I/D Gain registers)",
+            read_only=True)).value
+        if units not in ('si', 'dynamixel'):
+            raise Px100Error(f"gains_units must be 'si' or 'dynamixel', not {units!r}")
+        self._units = units
+        self._gain_joints = list(self.model.joint_names)
+        joint_types = dict(zip(self.model.joint_names, self.model.joint_types))
+        if self.model.gripper is not None:
+            self._gain_joints.append(self.model.gripper.joint)
+            joint_types[self.model.gripper.joint] = 'gripper'
+        gains = {}
+        for joint in self._gain_joints:
+            base = default_gains(joint_types[joint])
+            reg = base.to_dynamixel() if units == 'dynamixel' else None
+            values = {}
+            for k, f in enumerate(GAIN_FIELDS):
+                default = getattr(base, f)
+                if reg is not None and k < 3:
+                    default = round(reg[k])
+                default = float(default)
+                values[f] = self.declare_parameter(f'gains.{joint}.{f}', default, dyn).value
+            error = self._gains_error(joint, values)
+            if error:
+                raise Px100Error(error)
+            gains[joint] = self._to_gains(values)
+        p = {name: self.get_parameter(name).value for name in _CORE_PARAMS}
+        error = self._core_error(p)
+        if error:
+            raise Px100Error(error)
+        self.sim = ArmSimulator(self.model, SimConfig(
+            control_rate=float(p['control_rate']), dynamics_divider=int(p['dynamics_divider']),
+            object_width=float(p['object_width'])), gains)
+        for note in self.sim.dynamics.notes:
+            self.get_logger().info(f'dynamics: {note}')
+        self._lock = threading.Lock()
+        self._rtf = float(p['real_time_factor'])
+        self._master = self._rtf != 1.0 or bool(p['publish_clock'])
+        self._publish_rate = float(p['publish_rate'])
+        self._clock_rate = float(p['clock_rate'])
+        self._dt_ns = int(round(1e9 / float(p['control_rate'])))
+        self._steps_done = 0
+        self._names = list(self.sim.joint_state().name)
+        self._base_frame = frame_id(self, self.model.base_frame)
+        self._timers: List = []
+        # publishers, subscription, services
+        self.pub_js = self.create_publisher(JointState, robot_topic(self, 'joint_states'), 10)
+        self.pub_ee = self.create_publisher(PoseStamped, robot_topic(self, 'ee_pose'), 10)
+        self.pub_desc = self.create_publisher(String, robot_topic(self, 'robot_description'),
+                                              LATCHED_QOS)
+        self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.pub_clock = (self.create_publisher(ClockMsg, '/clock', QoSProfile(depth=10))
+                          if self._master else None)
+        self.create_subscription(JointState, robot_topic(self, 'commands/joint_setpoints'),
+                                 self._on_setpoints, 50)
+        self.create_service(SetBool, robot_topic(self, 'torque_enable'), self._on_torque)
+        self.create_service(Trigger, robot_topic(self, 'reset'), self._on_reset)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self._publish_description()
+        # time keeping
+        self._sim_ns = 0
+        self._start_ns = self.get_clock().now().nanoseconds
+        self._wall_anchor = time.monotonic()
+        self._sim_anchor_ns = 0
+        self._next_pub_ns = 0
+        self._next_clock_ns = 0
+        self.achieved_rtf = math.nan
+        self._make_timers()
+        mode = (f'own clock, real_time_factor {self._rtf:g}, /clock at {self._clock_rate:g} Hz'
+                if self._master else 'following the node clock')
+        self.get_logger().info(
+            f'sim_driver for {self.model.name}: {len(self._names)} joints, physics at '
+            f'{1e9 / self._dt_ns:g} Hz, joint_states at {self._publish_rate:g} Hz, {mode}')
+
+    # --- parameters ----------------------------------------------------------------------------
+    def _to_gains(self, values: dict) -> PidGains:
+        values = {k: float(v) for k, v in values.items()}
+        if self._units == 'dynamixel':
+            clamps = {k: values[k] for k in ('i_clamp', 'u_clamp', 'ff_velocity')}
+            return PidGains.from_dynamixel(values['p'], values['i'], values['d'], **clamps)
+        return PidGains(**values)
+
+    def _gains_error(self, joint: str, values: dict) -> Optional[str]:
+        for f, v in values.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                return f'gains.{joint}.{f} must be a number, not {v!r}'
+        try:
+            gains = self._to_gains(values)
+        except Px100Error as exc:
+            return f'gains.{joint}: {exc}'
+        sim = getattr(self, 'sim', None)
+        if sim is not None:
+            dt = sim.dt
+            inertia = (sim.gripper_servo.armature if joint == sim.gripper_name
+                       else sim.dynamics.armature[sim.names.index(joint)])
+            inertia = max(inertia, 1e-6)
+            if gains.d * dt > inertia:
+                return (f'gains.{joint}.d = {gains.d:.6g} would make the explicit control loop '
+                        f'unstable at {1.0 / dt:g} Hz (needs d < J/dt = {inertia / dt:.6g})')
+            if gains.p * dt * dt > inertia:
+                return (f'gains.{joint}.p = {gains.p:.6g} would make the loop unstable at '
+                        f'{1.0 / dt:g} Hz (needs p < J/dt^2 = {inertia / dt / dt:.6g})')
+        return None
+
+    def _core_error(self, p: dict) -> Optional[str]:
+        def number(name, lo, hi, allow_inf=False):
+            v = p[name]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+                return f'{name} must be a number, not {v!r}'
+            if math.isinf(v) and allow_inf:
+                return None
+            if not lo <= v <= hi:
+                return f'{name} = {v} is outside [{lo}, {hi}]'
+            return None
+        for err in (number('control_rate', 10.0, 100000.0),
+                    number('publish_rate', 0.1, 1000.0),
+                    number('real_time_factor', 0.0, 1e6, allow_inf=True),
+                    number('clock_rate', 1.0, 10000.0),
+                    number('object_width', 0.0, 10.0)):
+            if err:
+                return err
+        if p['publish_rate'] > p['control_rate']:
+            return (f"publish_rate {p['publish_rate']} Hz is above control_rate "
+                    f"{p['control_rate']} Hz")
+        div = p['dynamics_divider']
+        if isinstance(div, bool) or not isinstance(div, int) or div < 1:
+            return f'dynamics_divider must be an integer >= 1, not {div!r}'
+        sim = getattr(self, 'sim', None)
+        if sim is not None and sim.linkage is not None:
+            try:
+                sim.linkage.check_object_width(float(p['object_width']))
+            except Px100Error as exc:
+                return str(exc)
+        elif sim is not None and p['object_width']:
+            return 'this robot has no gripper to hold an object'
+        return None
+
+    def _validate_parameters(self, params: List[Parameter]) -> SetParametersResult:
+        changed = {prm.name: prm.value for prm in params}
+        if any(name.startswith('gains.') for name in changed):
+            for joint in self._gain_joints:
+                keys = [f'gains.{joint}.{f}' for f in GAIN_FIELDS]
+                if not any(k in changed for k in keys):
+                    continue
+                values = {f: changed.get(k, self.get_parameter(k).value)
+                          for f, k in zip(GAIN_FIELDS, keys)}
+                error = self._gains_error(joint, values)
+                if error:
+                    return SetParametersResult(successful=False, reason=error)
+        core = [n for n in changed if n in _CORE_PARAMS]
+        if core:
+            p = {n: changed.get(n, self.get_parameter(n).value) for n in _CORE_PARAMS}
+            error = self._core_error(p)
+            if error:
+                return SetParametersResult(successful=False, reason=error)
+            if 'real_time_factor' in changed and not self._master \
+                    and float(changed['real_time_factor']) != 1.0:
+                return SetParametersResult(successful=False, reason=(
+                    'this driver follows the node clock; start it with real_time_factor != 1 '
+                    'or publish_clock:=true to run on its own clock'))
+            if 'control_rate' in changed:
+                dt = 1.0 / float(changed['control_rate'])
+                for joint in self._gain_joints:
+                    g = self.sim.gains(joint)
+                    inertia = (self.sim.gripper_servo.armature
+                               if joint == self.sim.gripper_name
+                               else self.sim.dynamics.armature[self.sim.names.index(joint)])
+                    if g.d * dt > inertia or g.p * dt * dt > inertia:
+                        return SetParametersResult(successful=False, reason=(
+                            f'control_rate {changed["control_rate"]} Hz is too slow for the '
+                            f"gains of '{joint}'"))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params: List[Parameter]) -> None:
+        changed = {prm.name: prm.value for prm in params}
+        with self._lock:
+            for joint in self._gain_joints:
+                keys = [f'gains.{joint}.{f}' for f in GAIN_FIELDS]
+                if any(k in changed for k in keys):
+                    values = {f: self.get_parameter(k).value for f, k in zip(GAIN_FIELDS, keys)}
+                    self.sim.set_gains(joint, self._to_gains(values))
+                    self.get_logger().info(f'gains of {joint}: {self.sim.gains(joint)}')
+            if 'object_width' in changed:
+                self.sim.set_object_width(float(changed['object_width']))
+            if 'dynamics_divider' in changed:
+                self.sim.config = _replace_config(self.sim.config,
+                                                  dynamics_divider=int(
+                                                      changed['dynamics_divider']))
+            if 'control_rate' in changed:
+                rate = float(changed['control_rate'])
+                self.sim.dt = 1.0 / rate
+                self._dt_ns = int(round(1e9 / rate))
+            retime = False
+            if 'publish_rate' in changed:
+                self._publish_rate = float(changed['publish_rate'])
+                retime = True
+            if 'clock_rate' in changed:
+                self._clock_rate = float(changed['clock_rate'])
+            if 'real_time_factor' in changed:
+                self._rtf = float(changed['real_time_factor'])
+                self._wall_anchor = time.monotonic()
+                self._sim_anchor_ns = self._sim_ns
+            if retime:
+                self._make_timers()
+
+    # --- timing --------------------------------------------------------------------------------
+    def _make_timers(self) -> None:
+        for t in self._timers:
+            self.destroy_timer(t)
+        self._timers = []
+        if self._master:
+            steady = Clock(clock_type=ClockType.STEADY_TIME)
+            self._timers.append(self.create_timer(1.0 / TICK_RATE, self._on_master_tick,
+                                                  clock=steady))
+            return
+        self._timers.append(self.create_timer(1.0 / self._publish_rate, self._on_publish_tick))
+        if self._publish_rate < TICK_RATE / 2:
+            self._timers.append(self.create_timer(1.0 / TICK_RATE, self._on_follow_tick))
+
+    def _advance_steps(self, steps: int) -> None:
+        step = self.sim.step
+        for _ in range(steps):
+            step()
+        self._sim_ns += steps * self._dt_ns
+
+    def _advance_to_clock(self) -> int:
+        """Advance the physics to the node clock's now; return now [ns]."""
+        now = self.get_clock().now().nanoseconds
+        if self._start_ns == 0 and self._sim_ns == 0:
+            self._start_ns = now    # use_sim_time: the first /clock message sets the origin
+        target = now - self._start_ns
+        if target < self._sim_ns:   # the clock jumped back (e.g. /clock restarted)
+            self._start_ns = now - self._sim_ns
+            return now
+        steps = (target - self._sim_ns) // self._dt_ns
+        max_steps = int(MAX_CHUNK * 1e9 // self._dt_ns)
+        if steps > max_steps:
+            self.get_logger().warning(
+                f'simulation fell {(target - self._sim_ns) * 1e-9:.3f} s behind the clock; '
+                'skipping ahead', throttle_duration_sec=5.0)
+            self._start_ns += (steps - max_steps) * self._dt_ns
+            steps = max_steps
+        self._advance_steps(int(steps))
+        return now
+
+    def _on_follow_tick(self) -> None:
+        with self._lock:
+            self._advance_to_clock()
+
+    def _on_publish_tick(self) -> None:
+        with self._lock:
+            now = self._advance_to_clock()
+            self._publish_state(now)
+
+    def _on_master_tick(self) -> None:
+        with self._lock:
+            wall0 = time.monotonic()
+            fast = self._rtf == 0.0 or math.isinf(self._rtf)
+            if fast:
+                target = math.inf
+            else:
+                target = self._sim_anchor_ns + (wall0 - self._wall_anchor) * self._rtf * 1e9
+            pub_period = int(round(1e9 / self._publish_rate))
+            clock_period = int(round(1e9 / self._clock_rate))
+            start_ns = self._sim_ns
+            budget_end = wall0 + (CHUNK_BUDGET if fast else 0.8 / TICK_RATE)
+            while self._sim_ns + self._dt_ns <= target:
+                next_event = min(self._next_pub_ns, self._next_clock_ns)
+                steps = max(1, (next_event - self._sim_ns) // self._dt_ns)
+                if not fast:
+                    steps = min(steps, int((target - self._sim_ns) // self._dt_ns))
+                self._advance_steps(int(min(steps, 50)))
+                if self._sim_ns >= self._next_clock_ns:
+                    self.pub_clock.publish(ClockMsg(clock=_time_msg(self._sim_ns)))
+                    self._next_clock_ns += clock_period * max(
+                        1, (self._sim_ns - self._next_clock_ns) // clock_period + 1)
+                if self._sim_ns >= self._next_pub_ns:
+                    self._publish_state(self._sim_ns)
+                    self._next_pub_ns += pub_period * max(
+                        1, (self._sim_ns - self._next_pub_ns) // pub_period + 1)
+                if time.monotonic() > budget_end:
+                    break
+            wall1 = time.monotonic()
+            if not fast and self._sim_ns + 2 * self._dt_ns < target:
+                # cannot keep up: re-anchor so the debt does not grow without bound
+                self._wall_anchor, self._sim_anchor_ns = wall1, self._sim_ns
+            if wall1 > wall0:
+                self.achieved_rtf = (self._sim_ns - start_ns) * 1e-9 / (wall1 - wall0)
+
+    def sim_time_ns(self) -> int:
+        """Return the simulated time integrated so far [ns] (own-clock mode: the stamp)."""
+        return self._sim_ns
+
+    # --- publishing ----------------------------------------------------------------------------
+    def _publish_state(self, stamp_ns: int) -> None:
+        sample = self.sim.joint_state()
+        stamp = _time_msg(stamp_ns)
+        js = JointState()
+        js.header.stamp = stamp
+        js.name = self._names
+        js.position = [float(x) for x in sample.position]
+        js.velocity = [float(x) for x in sample.velocity]
+        js.effort = [float(x) for x in sample.effort]
+        self.pub_js.publish(js)
+        pose = PoseStamped()
+        pose.header.stamp = stamp
+        pose.header.frame_id = self._base_frame
+        pose.pose = matrix_to_pose(self.sim.ee_pose())
+        self.pub_ee.publish(pose)
+
+    def _publish_description(self) -> None:
+        if not self.model.urdf_xml:
+            self.get_logger().warning(f'robot {self.model.name} has no URDF: '
+                                      'robot_description not published')
+            return
+        self.pub_desc.publish(String(data=prefix_urdf(self.model.urdf_xml, robot_name(self))))
+
+    def _refuse(self, reason: str, names) -> None:
+        self.get_logger().warning(f'setpoint refused: {reason}', throttle_duration_sec=0.5)
+        status = DiagnosticStatus(level=DiagnosticStatus.ERROR,
+                                  name=f'{self.get_fully_qualified_name()}: joint_setpoints',
+                                  message=f'setpoint refused: {reason}',
+                                  hardware_id=robot_name(self) or self.model.name)
+        status.values = [KeyValue(key='names', value=','.join(str(n) for n in names))]
+        diag = DiagnosticArray(status=[status])
+        diag.header.stamp = self.get_clock().now().to_msg()
+        self.pub_diag.publish(diag)
+
+    # --- callbacks -----------------------------------------------------------------------------
+    def _on_setpoints(self, msg: JointState) -> None:
+        try:
+            with self._lock:
+                self.sim.command(list(msg.name), list(msg.position), list(msg.velocity),
+                                 list(msg.effort))
+        except Px100Error as exc:
+            self._refuse(str(exc), msg.name)
+
+    def _on_torque(self, request, response):
+        with self._lock:
+            self.sim.set_torque_enabled(request.data)
+        response.success = True
+        response.message = 'torque on' if request.data else 'torque off'
+        self.get_logger().info(f'{response.message} (all joints)')
+        return response
+
+    def _on_reset(self, request, response):
+        with self._lock:
+            self.sim.reset()
+        response.success = True
+        response.message = 'reset to the sleep pose'
+        self.get_logger().info(response.message)
+        return response
+
+
+def _replace_config(config: SimConfig, **changes) -> SimConfig:
+    from dataclasses import replace
+    return replace(config, **changes)
 
 
 def main(args=None):
-    """Say that this executable is not built yet and exit non-zero."""
-    print('px100_control: sim_driver_node is not built yet', file=sys.stderr)
-    return 1
+    """Run the sim_driver node until SIGINT."""
+    return spin_node(lambda options: SimDriverNode(), args,
+                     description='Simulated PincherX-100 joint-state driver: rigid-body joint '
+                                 'dynamics, XL430 servo model and one PID loop per joint.')
 
 
 if __name__ == '__main__':
+    import sys
     sys.exit(main())

@@ -1,0 +1,104 @@
+"""
+Servo model: a PWM-driven DC motor behind a gearbox (DYNAMIXEL XL430-W250 by default).
+
+The servo's controller outputs a PWM duty ``duty`` in [-pwm_limit, pwm_limit] (the XL430 PWM_Limit
+register, 885 = 100 %). A voltage-driven DC motor then gives the output-shaft torque [N*m]::
+
+    tau = stall_torque * duty - (stall_torque / no_load_speed) * omega
+
+i.e. the linear torque-speed curve: ``stall_torque`` at zero speed and full duty, zero torque at
+``no_load_speed``. The second term is the back-EMF, a viscous damping ``back_emf_damping`` that
+exists whenever the bridge drives the motor (torque on); with torque off the motor coasts.
+``velocity_limit`` is the servo's Velocity_Limit register (131 x 0.229 rpm = pi rad/s on the
+PX100): while torque is on the joint speed is held within it. ``armature`` is the rotor inertia
+reflected through the gearbox [kg*m^2]; ROBOTIS does not publish it: 0.002 kg*m^2 (about 3e-8
+kg*m^2 at the rotor times 258.5^2) gives an 8.6 ms mechanical time constant, typical of small
+cored DC motors, and dominates the inertia of the light PX100 wrist as on the real arm.
+
+XL430-W250 at 11.1 V (ROBOTIS e-Manual): stall torque 1.4 N*m, no-load speed 57 rpm (6.0 rad/s),
+gear ratio 258.5:1, 4096 ticks/rev. Units: N*m, rad/s (N and m/s for a linear actuator).
+"""
+from dataclasses import dataclass, replace
+import math
+
+from px100_control.errors import InvalidInputError
+
+
+@dataclass(frozen=True)
+class ServoSpec:
+    """
+    Electromechanical data of one servo.
+
+    :param stall_torque: [N*m] (N for linear) at full duty and zero speed
+    :param no_load_speed: [rad/s] (m/s) at full duty and zero load
+    :param velocity_limit: [rad/s] (m/s) speed held while torque is on
+    :param armature: reflected rotor inertia [kg*m^2] (kg)
+    :param pwm_limit: largest |duty| (PWM_Limit / 885)
+    """
+
+    model: str = 'XL430-W250'
+    stall_torque: float = 1.4
+    no_load_speed: float = 6.0
+    velocity_limit: float = math.pi
+    armature: float = 0.01
+    pwm_limit: float = 1.0
+    pwm_max_register: int = 885
+
+    def __post_init__(self):
+        for name in ('stall_torque', 'no_load_speed', 'velocity_limit', 'pwm_limit'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise InvalidInputError(f'servo {name} must be a positive number, not {value!r}')
+        if not (math.isfinite(self.armature) and self.armature >= 0.0):
+            raise InvalidInputError(f'servo armature must be >= 0, not {self.armature!r}')
+        if self.pwm_limit > 1.0:
+            raise InvalidInputError(f'servo pwm_limit is a fraction <= 1, not {self.pwm_limit}')
+
+    @property
+    def back_emf_damping(self) -> float:
+        """Return the back-EMF damping stall_torque / no_load_speed [N*m*s/rad]."""
+        return self.stall_torque / self.no_load_speed
+
+    @property
+    def max_torque(self) -> float:
+        """Return the largest drive torque, stall_torque * pwm_limit [N*m]."""
+        return self.stall_torque * self.pwm_limit
+
+    def duty(self, command: float) -> float:
+        """Return the PWM duty in [-pwm_limit, pwm_limit] for a torque command [N*m]."""
+        d = command / self.stall_torque
+        lim = self.pwm_limit
+        return lim if d > lim else (-lim if d < -lim else d)
+
+    def torque(self, command: float, velocity: float, enabled: bool = True) -> float:
+        """
+        Return the output torque [N*m] for a torque command at a joint velocity [rad/s].
+
+        Example Input: command=2.0, velocity=0.0  Output: 1.4 (saturated at stall)
+        Example Input: command=1.4, velocity=6.0  Output: 0.0 (no-load speed)
+        """
+        if not enabled:
+            return 0.0
+        return self.stall_torque * self.duty(command) - self.back_emf_damping * velocity
+
+    def with_changes(self, **changes) -> 'ServoSpec':
+        """Return a copy with some fields changed (validated)."""
+        return replace(self, **changes)
+
+
+#: DYNAMIXEL XL430-W250-T at 11.1 V, the five PX100 servos.
+XL430_W250 = ServoSpec()
+
+#: A generic linear actuator for prismatic joints of robots without data (N, m/s, kg).
+GENERIC_LINEAR = ServoSpec(model='generic-linear', stall_torque=40.0, no_load_speed=0.4,
+                           velocity_limit=0.2, armature=0.5)
+
+
+def servo_for_joint(joint_type: str, overrides: dict = None) -> ServoSpec:
+    """
+    Return the servo of a joint: XL430-W250 for revolute joints, a generic linear actuator else.
+
+    :param overrides: optional fields to change (e.g. from a robot file's ``dynamics`` section)
+    """
+    base = GENERIC_LINEAR if joint_type == 'prismatic' else XL430_W250
+    return base.with_changes(**overrides) if overrides else base
