@@ -66,16 +66,27 @@ def _ok(model, q, T) -> bool:
     return dp < POS_TOL and dr < ORI_TOL and model.within_limits(q, tol=1e-6)
 
 
-def _measure(name, model, targets, solve, note=''):
+def _ok_axis(model, q, T) -> bool:
+    """Position + tool x axis (the 'pitch' task of a 4-DOF arm) within tolerance and limits."""
+    if q is None or not np.all(np.isfinite(q)):
+        return False
+    Tq = model.fk(q)
+    dp = float(np.linalg.norm(Tq[:3, 3] - T[:3, 3]))
+    da = math.acos(max(-1.0, min(1.0, float(Tq[:3, 0] @ T[:3, 0]))))
+    return dp < POS_TOL and da < ORI_TOL and model.within_limits(q, tol=1e-6)
+
+
+def _measure(name, model, targets, solve, note='', check=_ok):
     """Time solve(T) -> q (or None) on every target; return a row dict."""
     times, ok = [], 0
     for T in targets:
         t0 = time.perf_counter()
         q = solve(T)
         times.append(time.perf_counter() - t0)
-        ok += bool(q is not None and _ok(model, np.asarray(q, float), T))
+        ok += bool(q is not None and check(model, np.asarray(q, float), T))
     times_us = np.array(times) * 1e6
     return {'name': name, 'median_us': float(np.median(times_us)),
+            'min_us': float(np.min(times_us)),
             'p90_us': float(np.percentile(times_us, 90)), 'success': ok / len(targets),
             'n': len(targets), 'note': note}
 
@@ -118,8 +129,9 @@ def _ours(model, Q, targets, quick):
             ok += bool(sols) and _ok(model, np.array(sols[0]), T) or any(
                 _ok(model, np.array(s), T) for s in sols[1:])
         t = np.array(times) * 1e6
-        rows.append({'name': f'px100_control closed form ik_xyz_pitch (analytic.{model.analytic_ik}'
-                     ', math module)', 'median_us': float(np.median(t)),
+        rows.append({'name': 'px100_control closed form ik_xyz_pitch '
+                             f'(analytic.{model.analytic_ik}'
+                     ', math module)', 'median_us': float(np.median(t)), 'min_us': float(t.min()),
                      'p90_us': float(np.percentile(t, 90)), 'success': ok / len(targets),
                      'n': len(targets), 'note': 'all branches, limit-filtered, seed-ordered'})
     rows.append(_measure("px100_control solve_ik(mode='full') auto", model, targets,
@@ -127,8 +139,9 @@ def _ours(model, Q, targets, quick):
                          note=f'analytic: {model.analytic_ik}' if model.analytic_ik else 'dls'))
     if model.dof < 6:
         rows.append(_measure("px100_control solve_ik(mode='pitch') auto", model, targets,
-                             lambda T: solve_ik(model, T, mode='pitch').q,
-                             note='yaw forced to atan2(y, x)'))
+                             lambda T: solve_ik(model, T, mode='pitch').q, check=_ok_axis,
+                             note='yaw forced to atan2(y, x); success on position + tool x '
+                                  'axis'))
     iters = []
 
     def dls(T):
@@ -240,9 +253,7 @@ def _ikpy_rows(model, targets):
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter('ignore')
-        links = ['base_link'] + _urdf_chain_links(model)
-        ch = ikpy.chain.Chain.from_urdf_file(path, base_elements=links[:1],
-                                             last_link_vector=None)
+        ch = ikpy.chain.Chain.from_urdf_file(path, base_elements=_urdf_chain_elements(model))
     names = [lk.name for lk in ch.links]
     active = [lk.name in model.joint_names for lk in ch.links]
     ch = ikpy.chain.Chain(ch.links, active_links_mask=active, name='arm')
@@ -258,10 +269,14 @@ def _ikpy_rows(model, targets):
                      targets, solve, note=f'chain {len(ch.links)} links from the URDF')]
 
 
-def _urdf_chain_links(model):
+def _urdf_chain_elements(model):
+    """Return [base link, joint, link, joint, ...] down to the end effector (ikpy's path)."""
     from px100_control.models.urdf_chain import chain_joints, load_urdf
     urdf = load_urdf(model.urdf_xml)
-    return [j.child for j in chain_joints(urdf, model.base_frame, model.ee_frame)]
+    out = [model.base_frame]
+    for j in chain_joints(urdf, model.base_frame, model.ee_frame):
+        out += [j.name, j.child]
+    return out
 
 
 def _rtb_rows(model, targets):
@@ -276,14 +291,17 @@ def _rtb_rows(model, targets):
              for j, lo, hi in zip(table['joints'], model.lower, model.upper)]
     robot = rtb.DHRobot(links, tool=SE3(_matrix(table.get('tool')), check=False),
                         name=model.name)
+    # DHRobot.ik_LM drops the tool transform (every solve fails); its ETS keeps it
+    ets = robot.ets()
     q0 = np.zeros(model.dof)
 
     def solve(T):
-        sol = robot.ik_LM(T, q0=q0, ilimit=30, slimit=50, tol=1e-12, joint_limits=True,
-                          method='chan', k=0.1)
-        return sol[0] if sol[1] else None
-    return [_measure("roboticstoolbox ik_LM (C++, method='chan', tuned)", model, targets, solve,
-                     note='DH model from px100.yaml; ilimit 30, slimit 50, joint limits')]
+        sol = ets.ik_LM(T, q0=q0, ilimit=30, slimit=100, tol=1e-10, joint_limits=True,
+                        method='chan', k=1.0)
+        return sol.q if sol.success else None
+    return [_measure("roboticstoolbox ETS.ik_LM (C++, method='chan', tuned)", model, targets,
+                     solve, note='DH model from px100.yaml; ilimit 30, slimit 100, tol 1e-10, '
+                                 'joint limits')]
 
 
 def _pin_rows(model, targets):
@@ -295,7 +313,8 @@ def _pin_rows(model, targets):
     red = pin.buildReducedModel(full, lock, pin.neutral(full))
     data = red.createData()
     fid = red.getFrameId(model.ee_frame)
-    idx = [red.names[1:].index(j) for j in model.joint_names]
+    names = list(red.names)[1:]
+    idx = [names.index(j) for j in model.joint_names]
 
     def solve(T):
         oMdes = pin.SE3(T[:3, :3], T[:3, 3])
@@ -357,17 +376,18 @@ def _peers_in_bench_venv(robot, n, quick):
 
 def _markdown(rows, ref_name):
     ref = next((r for r in rows if r.get('name') == ref_name), None)
-    lines = ['| solver | median [us] | p90 [us] | success | x ours | note |',
-             '| --- | ---: | ---: | ---: | ---: | --- |']
+    lines = ['| solver | median [us] | min [us] | p90 [us] | success | x ours | note |',
+             '| --- | ---: | ---: | ---: | ---: | ---: | --- |']
     for r in rows:
         if 'skipped' in r:
-            lines.append(f"| {r['name']} | - | - | - | - | skipped: {r['skipped']} |")
+            lines.append(f"| {r['name']} | - | - | - | - | - | skipped: {r['skipped']} |")
             continue
         ratio = (f"{r['median_us'] / ref['median_us']:.2f}" if ref and r.get('median_us')
                  and r['success'] is not None else '')
         succ = '' if r['success'] is None else f"{100 * r['success']:.1f} %"
         p90 = f"{r['p90_us']:.1f}" if r.get('p90_us') is not None else ''
-        lines.append(f"| {r['name']} | {r['median_us']:.1f} | {p90} | {succ} | {ratio} | "
+        low = f"{r['min_us']:.1f}" if r.get('min_us') is not None else ''
+        lines.append(f"| {r['name']} | {r['median_us']:.1f} | {low} | {p90} | {succ} | {ratio} | "
                      f"{r.get('note', '')} |")
     return '\n'.join(lines)
 

@@ -151,6 +151,55 @@ def fk_jacobian_py(c: Chain, q: Sequence[float]):
     return R, p, Jw, Jv
 
 
+def fk_py(c: Chain, q: Sequence[float]):
+    """Return (R 3x3 nested lists, p [x, y, z]) of the end effector at q (plain floats)."""
+    r00 = r11 = r22 = 1.0
+    r01 = r02 = r10 = r12 = r20 = r21 = 0.0
+    px = py_ = pz = 0.0
+    for (w, v, kv, k2v, rev), th in zip(c.py, q):
+        if rev:
+            wx, wy, wz = w
+            s, cc = math.sin(th), 1.0 - math.cos(th)
+            ts = th - s
+            a00 = 1.0 + cc * (wx * wx - 1.0)
+            a11 = 1.0 + cc * (wy * wy - 1.0)
+            a22 = 1.0 + cc * (wz * wz - 1.0)
+            a01 = cc * wx * wy - s * wz
+            a10 = cc * wx * wy + s * wz
+            a02 = cc * wx * wz + s * wy
+            a20 = cc * wx * wz - s * wy
+            a12 = cc * wy * wz - s * wx
+            a21 = cc * wy * wz + s * wx
+            tx = th * v[0] + cc * kv[0] + ts * k2v[0]
+            ty = th * v[1] + cc * kv[1] + ts * k2v[1]
+            tz = th * v[2] + cc * kv[2] + ts * k2v[2]
+            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
+                           r10 * tx + r11 * ty + r12 * tz + py_,
+                           r20 * tx + r21 * ty + r22 * tz + pz)
+            r00, r01, r02 = (r00 * a00 + r01 * a10 + r02 * a20, r00 * a01 + r01 * a11
+                             + r02 * a21, r00 * a02 + r01 * a12 + r02 * a22)
+            r10, r11, r12 = (r10 * a00 + r11 * a10 + r12 * a20, r10 * a01 + r11 * a11
+                             + r12 * a21, r10 * a02 + r11 * a12 + r12 * a22)
+            r20, r21, r22 = (r20 * a00 + r21 * a10 + r22 * a20, r20 * a01 + r21 * a11
+                             + r22 * a21, r20 * a02 + r21 * a12 + r22 * a22)
+        else:
+            tx, ty, tz = th * v[0], th * v[1], th * v[2]
+            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
+                           r10 * tx + r11 * ty + r12 * tz + py_,
+                           r20 * tx + r21 * ty + r22 * tz + pz)
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = c.MR
+    mx, my, mz = c.Mp
+    R = [[r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
+          r00 * m02 + r01 * m12 + r02 * m22],
+         [r10 * m00 + r11 * m10 + r12 * m20, r10 * m01 + r11 * m11 + r12 * m21,
+          r10 * m02 + r11 * m12 + r12 * m22],
+         [r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
+          r20 * m02 + r21 * m12 + r22 * m22]]
+    p = [r00 * mx + r01 * my + r02 * mz + px, r10 * mx + r11 * my + r12 * mz + py_,
+         r20 * mx + r21 * my + r22 * mz + pz]
+    return R, p
+
+
 def fk_and_jacobian(c: Chain, q) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return (T (4, 4), J (6, n)) at q: pose and geometric Jacobian as numpy arrays.

@@ -27,7 +27,7 @@ import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
-from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_batch, solve_dls,
+from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_py, solve_dls,
                                                 solve_newton, Task)
 
 MODES = ('full', 'pitch', 'position')
@@ -52,17 +52,23 @@ def check_pose(T_target, what: str = 'pose') -> np.ndarray:
         raise InvalidInputError(f'{what} is not numeric: {T_target!r}') from exc
     if T.shape != (4, 4):
         raise InvalidInputError(f'{what} must be a (4, 4) matrix, got shape {T.shape}')
-    if np.isnan(T).any():
+    L = T.tolist()
+    flat = L[0] + L[1] + L[2] + L[3]
+    if any(x != x for x in flat):
         raise InvalidInputError(f'{what} contains NaN')
-    if not np.isfinite(T).all():
+    if any(x in (math.inf, -math.inf) for x in flat):
         raise InvalidInputError(f'{what} contains inf')
-    if np.abs(T[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-9:
-        raise InvalidInputError(f'{what} bottom row must be [0, 0, 0, 1], got {T[3].tolist()}')
-    R = T[:3, :3]
-    err = float(np.abs(R.T @ R - np.eye(3)).max())
-    if err > 1e-6 or np.linalg.det(R) < 0:
+    if max(abs(L[3][0]), abs(L[3][1]), abs(L[3][2]), abs(L[3][3] - 1.0)) > 1e-9:
+        raise InvalidInputError(f'{what} bottom row must be [0, 0, 0, 1], got {L[3]}')
+    c = [[L[0][j], L[1][j], L[2][j]] for j in range(3)]          # columns of R
+    err = max(abs(sum(a * b for a, b in zip(c[i], c[j])) - (1.0 if i == j else 0.0))
+              for i in range(3) for j in range(i, 3))
+    x, y, z = c
+    det = (x[0] * (y[1] * z[2] - y[2] * z[1]) - x[1] * (y[0] * z[2] - y[2] * z[0])
+           + x[2] * (y[0] * z[1] - y[1] * z[0]))
+    if err > 1e-6 or det < 0:
         raise InvalidInputError(f'{what} rotation is not a rotation matrix (|R^T R - I| = '
-                                f'{err:.3g}, det = {np.linalg.det(R):.3g})')
+                                f'{err:.3g}, det = {det:.3g})')
     return T
 
 
@@ -145,7 +151,8 @@ def make_task(model, T: np.ndarray, mode: str):
 def _wrap_into_limits(model, Q: np.ndarray) -> np.ndarray:
     """Shift revolute joint values by +-2 pi where that brings them inside their limits."""
     lo, hi = np.asarray(model.lower), np.asarray(model.upper)
-    if np.all((Q >= lo - 1e-9) & (Q <= hi + 1e-9)):
+    lo_l, hi_l = lo.tolist(), hi.tolist()
+    if all(a - 1e-9 <= x <= b + 1e-9 for row in Q.tolist() for x, a, b in zip(row, lo_l, hi_l)):
         return Q
     rev = np.array([t != 'prismatic' for t in model.joint_types])
     for shift in (2.0 * math.pi, -2.0 * math.pi):
@@ -203,35 +210,38 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
         return _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
                                 max_iterations, name, module, T_eff)
     c = chain(model)
-    verified = []
+    verified = []          # (q list, position error, orientation error)
     best_err = (math.inf, math.inf)
-    if len(C):
-        Ts = fk_batch(c, C)
-        for q, T in zip(C, Ts):
-            pe, oe = task.errors(T)
+    for q in C.tolist():
+        R, p = fk_py(c, q)
+        pe, oe = task.errors_py(R, p)
+        if pe > tol_p or oe > tol_o:
+            if pe < _POLISH_LIMIT and oe < _POLISH_LIMIT:      # near-singular rounding
+                res = solve_dls(model, task, q, tol_position=tol_p, tol_orientation=tol_o,
+                                max_iterations=10, check_limits=False)
+                if res.success:
+                    q, pe, oe = res.q.tolist(), res.position_error, res.orientation_error
             if pe > tol_p or oe > tol_o:
-                if pe < _POLISH_LIMIT and oe < _POLISH_LIMIT:
-                    res = solve_dls(model, task, q, tol_position=tol_p, tol_orientation=tol_o,
-                                    max_iterations=10, check_limits=False)
-                    if res.success:
-                        q, pe, oe = res.q, res.position_error, res.orientation_error
-                if pe > tol_p or oe > tol_o:
-                    if pe + oe < sum(best_err):
-                        best_err = (pe, oe)
-                    continue
-            verified.append(q)
+                if pe + oe < sum(best_err):
+                    best_err = (pe, oe)
+                continue
+        verified.append((q, pe, oe))
     valid = verified
     if check_limits and verified:
-        V = np.array(verified)
-        lo, hi = np.asarray(model.lower) - 1e-9, np.asarray(model.upper) + 1e-9
-        inside = np.all((V >= lo) & (V <= hi), axis=1)
-        valid = [q for q, ok in zip(verified, inside) if ok]
+        lo = [v - 1e-9 for v in c.lo]
+        hi = [v + 1e-9 for v in c.hi]
+        valid = [v for v in verified if all(a <= x <= b for x, a, b in zip(v[0], lo, hi))]
     if valid:
-        sols = _order(valid, q_seed)
-        T, _ = fk_and_jacobian(c, sols[0])
-        pe, oe = task.errors(T)
-        return IkResult(True, sols[0], sols, name, 0, pe, oe, '',
+        sd = [float(x) for x in q_seed]
+        valid.sort(key=lambda v: sum((x - y) ** 2 for x, y in zip(v[0], sd)))
+        kept = []
+        for v in valid:
+            if all(max(abs(x - y) for x, y in zip(v[0], k[0])) > 1e-9 for k in kept):
+                kept.append(v)
+        sols = [np.array(v[0]) for v in kept]
+        return IkResult(True, sols[0], sols, name, 0, kept[0][1], kept[0][2], '',
                         {'candidates': int(len(C)), 'in_limits': len(sols)})
+    verified = [np.array(v[0]) for v in verified]
     if verified:
         reason = _limit_reason(model, np.array(verified))
         return IkResult(False, None, [], name, 0, reason=reason,
