@@ -132,11 +132,16 @@ def waist_angles(wx: float, wy: float, R: np.ndarray) -> List[float]:
     return [wrap_angle(a), wrap_angle(a + math.pi)]
 
 
-def planar_solutions(g: ArmPlane, t1: float, wx: float, wy: float, wz: float):
-    """Return [(g2, g3)] geometric shoulder/elbow angles putting the wrist point at W."""
+def planar_solutions(g: ArmPlane, t1: float, wx: float, wy: float, wz: float,
+                     tol: float = 1e-10):
+    """
+    Return [(g2, g3)] geometric shoulder/elbow angles putting the wrist point at W.
+
+    ``tol``: relative slack on the reach (larger for initial guesses that get refined).
+    """
     r = math.cos(t1) * wx + math.sin(t1) * wy
     out = []
-    for a, b in solve_type8(g.L1, g.L2, r - g.x1, wz - g.z1):
+    for a, b in solve_type8(g.L1, g.L2, r - g.x1, wz - g.z1, tol=tol):
         out.append((g.b1 - a, g.b2 - g.b1 - b))
     return out
 

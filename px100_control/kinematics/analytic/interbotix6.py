@@ -81,10 +81,12 @@ def _solve_pose(g: ArmPlane, T: np.ndarray) -> List[List[float]]:
     R, p = T[:3, :3], T[:3, 3]
     wx, wy, wz = p - g.Lt * R[:, 0]
     s = g.signs
+    # a near-spherical wrist only gives guesses: accept a wrist point slightly out of reach
+    tol = 1e-10 if g.offset <= _EXACT else 4.0 * g.offset / min(g.L1, g.L2)
     out = []
     for t1 in waist_angles(wx, wy, R):
         c1, s1 = math.cos(t1), math.sin(t1)
-        for g2, g3 in planar_solutions(g, t1, wx, wy, wz):
+        for g2, g3 in planar_solutions(g, t1, wx, wy, wz, tol):
             ph = g2 + g3
             cp, sp = math.cos(ph), math.sin(ph)
             # (Rz(t1) Ry(ph))^T
@@ -96,17 +98,20 @@ def _solve_pose(g: ArmPlane, T: np.ndarray) -> List[List[float]]:
     return out
 
 
-def _refine(model, Q: np.ndarray, T: np.ndarray, iterations: int = 8) -> np.ndarray:
-    """Gauss-Newton polish of guesses for a near-spherical wrist (body-frame twist error)."""
-    from px100_control.kinematics.se3 import inv_transform, log_se3
+def _refine(model, Q: np.ndarray, T: np.ndarray, iterations: int = 10) -> np.ndarray:
+    """Gauss-Newton polish of guesses for a near-spherical wrist (base-frame pose error)."""
+    from px100_control.kinematics.iterative import chain, fk_and_jacobian
+    from px100_control.kinematics.se3 import log_so3
+    c = chain(model)
     out = []
     for q in Q:
         q = q.copy()
         for _ in range(iterations):
-            Vb = log_se3(inv_transform(model.fk(q)) @ T)
-            if np.linalg.norm(Vb) < 1e-14:
+            Tq, J = fk_and_jacobian(c, q)
+            e = np.concatenate([log_so3(T[:3, :3] @ Tq[:3, :3].T), T[:3, 3] - Tq[:3, 3]])
+            if np.abs(e).max() < 1e-15:
                 break
-            q = q + np.linalg.lstsq(model.jacobian_body(q), Vb, rcond=None)[0]
+            q = q + np.linalg.lstsq(J, e, rcond=None)[0]
         out.append(q)
     return np.array(out).reshape(-1, model.dof)
 
