@@ -1,12 +1,417 @@
-"""Placeholder entry point: replaced when its node is built (see the issue tracker)."""
-import sys
+"""
+ik_service: inverse kinematics on request, one reply per request, matched by stamp.
+
+Topics (shared/reference/ros_interfaces.md, relative to ``/<robot_name>``):
+
+- ``ik/request`` (geometry_msgs/PoseStamped): ``header.stamp`` is the request id, ``frame_id``
+  empty or ``<robot_name>/base_link`` (``base_link`` is accepted too). An all-zero quaternion
+  means "orientation free": position-only IK, the free angles chosen toward ``nominal_pose``.
+- ``ik/solution`` (sensor_msgs/JointState): same stamp; the arm joint names and the solution
+  closest to the last measured ``joint_states`` (to ``nominal_pose`` before any state arrived);
+  ``position`` empty when there is none or the request was refused.
+- ``ik/status`` (diagnostic_msgs/DiagnosticStatus): exactly one per request, refused ones too.
+  ``name`` ``<robot_name>/ik_service``, ``hardware_id`` the request id ``'sec.nanosec'``,
+  ``level`` OK or ERROR, ``message`` 'solved' (with a warning appended when roll/yaw the arm
+  cannot reach were dropped) or the reason; ``values``: mode, method, iterations,
+  position_error [m], orientation_error [rad], solutions (count), and in 'pitch' mode
+  unreachable_roll / unreachable_yaw [rad].
+- ``ik/path_request`` (geometry_msgs/PoseArray) -> ``ik/path_solution``
+  (trajectory_msgs/JointTrajectory, same stamp): one point per pose, each seeded by the
+  previous one (no branch jumps), ``time_from_start`` left 0 (the caller times the path). A pose
+  that fails stops the path: the reply then holds the points solved before it, and the
+  ik/status (ERROR, same id) says which pose (value ``failed_index``) and why.
+
+Parameters: ``orientation_mode`` 'pitch' (solve position + pitch, report the roll/yaw a
+4/5-DOF arm cannot reach; a residual above ``orientation_tolerance`` [rad] is named in the
+message) or 'strict' (the whole pose or nothing); ``method`` ('auto' analytic where the robot
+has one, iterative otherwise or as a fallback); ``tol_position`` [m], ``tol_orientation``
+[rad], ``max_iterations``; ``nominal_pose`` (default: the model's home pose).
+The IK itself is :func:`px100_control.kinematics.solve.solve_ik` / ``solve_path``.
+"""
+import math
+import threading
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseArray, PoseStamped
+import numpy as np
+from px100_control.errors import InvalidInputError
+from px100_control.kinematics.analytic import get_solver
+from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
+from px100_control.kinematics.solve import solve_ik_batch as ik_batch
+from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
+                                      robot_topic, spin_node)
+from px100_control.ros.conversions import pose_to_matrix, stamp_id
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile,
+                       ReliabilityPolicy)
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+NODE_NAME = 'ik_service'
+MODES = {'pitch': 'pitch', 'strict': 'full'}
+
+#: requests and replies: reliable and deep, so bursts from many clients lose nothing
+REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                         reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
+
+PARAMETERS = {
+    'orientation_mode': ('pitch', "'pitch' (report unreachable roll/yaw) or 'strict' (refuse)"),
+    'orientation_tolerance': (1e-3, 'pitch mode: dropped roll/yaw above this is named [rad]'),
+    'method': ('auto', 'IK method: ' + ', '.join(METHODS)),
+    'tol_position': (1e-9, 'position tolerance of a solution [m]'),
+    'tol_orientation': (1e-9, 'orientation tolerance of a solution [rad]'),
+    'max_iterations': (200, 'iterations per start of an iterative method'),
+    'nominal_pose': (None, 'secondary-task target and seed before any state [rad] (home)'),
+}
+
+
+try:  # the pieces solve_ik verifies analytic solutions with (the batched fast path needs them)
+    from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
+    from px100_control.kinematics.solve import make_task as ik_make_task
+except ImportError:  # pragma: no cover - without them every request goes through solve_ik
+    ik_chain = ik_fk_batch = ik_make_task = None
+
+
+def _distinct(Q: np.ndarray, seed: np.ndarray, tol: float = 1e-9):
+    """Return the rows of Q without duplicates, ordered by distance to seed."""
+    order = np.argsort(np.einsum('ij,ij->i', Q - seed, Q - seed), kind='stable')
+    out = []
+    for i in order:
+        if all(np.max(np.abs(Q[i] - q)) > tol for q in out):
+            out.append(Q[i])
+    return out
+
+
+def _fmt(x: float) -> str:
+    return f'{x:.3e}' if math.isfinite(x) else str(x)
+
+
+class IkServiceNode(Node):
+    """Answer ik/request and ik/path_request with the IK of the robot model."""
+
+    def __init__(self, **node_kwargs):
+        super().__init__(NODE_NAME, **node_kwargs)
+        self.model = declare_robot_parameters(self)
+        for name, (default, _) in PARAMETERS.items():
+            if name == 'nominal_pose':
+                default = [float(x) for x in self.model.home]
+            self.declare_parameter(name, default)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        bad = self._check_parameters([self.get_parameter(n) for n in PARAMETERS]).reason
+        if bad:
+            raise InvalidInputError(f'ik_service parameters: {bad}')
+        self._names = list(self.model.joint_names)
+        self._index = {name: i for i, name in enumerate(self._names)}
+        self._frames = ('', frame_id(self, self.model.base_frame), self.model.base_frame)
+        self._diag_name = f'{robot_name(self) or "px100"}/{NODE_NAME}'
+        self._lock = threading.Lock()
+        self._meas = np.full(self.model.dof, np.nan)
+        self._have_state = False
+        self._js_names = None
+        self._js_map = None
+        # the batched fast path: robots whose analytic solver has solve_batch
+        self._max_batch = 256
+        self._chain = None
+        self._batch_method = f'analytic:{self.model.analytic_ik}'
+        if ik_make_task is not None and self.model.analytic_ik:
+            if hasattr(get_solver(self.model.analytic_ik), 'solve_batch'):
+                self._chain = ik_chain(self.model)
+        self._load_parameters()
+        self.add_post_set_parameters_callback(lambda params: self._load_parameters())
+
+        self._pub_solution = self.create_publisher(JointState, robot_topic(self, 'ik/solution'),
+                                                   REQUEST_QOS)
+        self._pub_status = self.create_publisher(DiagnosticStatus,
+                                                 robot_topic(self, 'ik/status'), REQUEST_QOS)
+        self._pub_path = self.create_publisher(JointTrajectory,
+                                               robot_topic(self, 'ik/path_solution'), 100)
+        self.create_subscription(JointState, robot_topic(self, 'joint_states'),
+                                 self._on_joint_states, qos_profile_sensor_data)
+        self._request_sub = self.create_subscription(
+            PoseStamped, robot_topic(self, 'ik/request'), self._on_request, REQUEST_QOS)
+        self.create_subscription(PoseArray, robot_topic(self, 'ik/path_request'),
+                                 self._on_path_request, 100)
+        # preallocated replies: only the changing fields are written per request
+        self._solution = JointState()
+        self._solution.name = list(self._names)
+        self._status = DiagnosticStatus()
+        self._status.name = self._diag_name
+        self.get_logger().info(
+            f'ik_service ready: {self.model.name} ({self.model.dof} joints, analytic '
+            f'{self.model.analytic_ik or "none"}), orientation_mode {self._mode_param}')
+
+    # ------------------------------------------------------------------ parameters
+    def _check_parameters(self, params) -> SetParametersResult:
+        for p in params:
+            v = p.value
+            if p.name == 'orientation_mode' and v not in MODES:
+                return SetParametersResult(
+                    successful=False, reason=f"orientation_mode must be 'pitch' or 'strict', "
+                                             f'got {v!r}')
+            if p.name == 'method' and v not in METHODS:
+                return SetParametersResult(
+                    successful=False, reason=f'method must be one of {METHODS}, got {v!r}')
+            if p.name in ('tol_position', 'tol_orientation', 'orientation_tolerance') and not (
+                    isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                return SetParametersResult(successful=False,
+                                           reason=f'{p.name} must be > 0, got {v!r}')
+            if p.name == 'max_iterations' and not (isinstance(v, int) and v > 0):
+                return SetParametersResult(successful=False,
+                                           reason=f'max_iterations must be > 0, got {v!r}')
+            if p.name == 'nominal_pose':
+                vals = list(v or [])
+                if len(vals) != self.model.dof or not all(math.isfinite(x) for x in vals):
+                    return SetParametersResult(
+                        successful=False, reason=f'nominal_pose needs {self.model.dof} finite '
+                                                 f'values, got {vals}')
+        return SetParametersResult(successful=True)
+
+    def _load_parameters(self) -> None:
+        """Freeze the parameters into plain attributes (read on every request)."""
+        get = self.get_parameter
+        self._mode_param = str(get('orientation_mode').value)
+        self._mode = MODES[self._mode_param]
+        self._orientation_tol = float(get('orientation_tolerance').value)
+        self._nominal = np.asarray(get('nominal_pose').value, float)
+        self._batch_ready = (self._chain is not None
+                             and str(get('method').value) in ('auto', 'analytic'))
+        self._kwargs = {'method': str(get('method').value),
+                        'tol_position': float(get('tol_position').value),
+                        'tol_orientation': float(get('tol_orientation').value),
+                        'max_iterations': int(get('max_iterations').value)}
+
+    # ------------------------------------------------------------------ inputs
+    def _on_joint_states(self, msg: JointState) -> None:
+        if msg.name != self._js_names:
+            self._js_names = list(msg.name)
+            self._js_map = [(i, self._index[x]) for i, x in enumerate(msg.name)
+                            if x in self._index]
+        pos = msg.position
+        with self._lock:
+            for i, j in self._js_map:
+                if i < len(pos):
+                    self._meas[j] = pos[i]
+            self._have_state = not np.any(np.isnan(self._meas))
+
+    def _seed(self) -> np.ndarray:
+        """Return the current measured arm state, or the nominal pose before any arrived."""
+        with self._lock:
+            return self._meas.copy() if self._have_state else self._nominal
+
+    def _target(self, header, pose):
+        """Return (T, mode) of a request; raise InvalidInputError when it is malformed."""
+        if header.frame_id not in self._frames:
+            raise InvalidInputError(
+                f"frame_id '{header.frame_id}' is not the base frame '{self._frames[1]}' "
+                '(no tf lookup here: send targets in the base frame)')
+        T, free = pose_to_matrix(pose, allow_zero_quaternion=True)
+        return T, ('position' if free else self._mode)
+
+    def _on_request(self, msg: PoseStamped) -> None:
+        """Answer this request and every other one already queued (one executor wake-up)."""
+        batch = [msg]
+        while len(batch) < self._max_batch:
+            queued = self._take_queued()
+            if queued is None:
+                break
+            batch.append(queued)
+        seed = self._seed()
+        fast = []
+        for req in batch:
+            stamp = req.header.stamp
+            try:
+                T, mode = self._target(req.header, req.pose)
+            except InvalidInputError as exc:
+                self._reply(stamp, None, DiagnosticStatus.ERROR, f'invalid request: {exc}', ())
+                continue
+            if mode == 'pitch' and self._batch_ready:
+                fast.append((stamp, T))
+            else:
+                self._solve_one(stamp, T, mode, seed)
+        if fast:
+            self._solve_fast(fast, seed)
+
+    def _take_queued(self):
+        """Return the next request waiting in the subscription queue, or None."""
+        sub = self._request_sub
+        try:
+            with sub.handle:
+                taken = sub.handle.take_message(sub.msg_type, sub.raw)
+        except Exception:  # noqa: B902 - draining is an optimisation; the executor takes it
+            return None
+        return None if taken is None else taken[0]
+
+    def _solve_one(self, stamp, T, mode: str, seed) -> None:
+        """Solve one request with solve_ik and publish its reply."""
+        try:
+            res = solve_ik(self.model, T, mode=mode, q_seed=seed, q_nominal=self._nominal,
+                           **self._kwargs)
+        except InvalidInputError as exc:
+            self._reply(stamp, None, DiagnosticStatus.ERROR, f'invalid request: {exc}', ())
+            return
+        except Exception as exc:  # noqa: B902 - a request must never stop the node
+            self.get_logger().error(f'ik request {stamp_id(stamp)}: internal error {exc!r}')
+            self._reply(stamp, None, DiagnosticStatus.ERROR, f'internal error: {exc!r}', ())
+            return
+        values = self._values(res, mode)
+        if res.success:
+            self._reply(stamp, res.q, DiagnosticStatus.OK, self._solved_message(res, mode),
+                        values)
+        else:
+            self._reply(stamp, None, DiagnosticStatus.ERROR, res.reason or 'no solution',
+                        values)
+
+    def _solve_fast(self, items, seed) -> None:
+        """
+        Solve many 'pitch' requests with one vectorised analytic call (the throughput path).
+
+        Same result as solve_ik: every closed-form branch in limits, the one closest to the
+        seed first, verified by forward kinematics against the same task; a request the batch
+        does not settle (no branch, or a residual above tolerance) goes through solve_ik for
+        its exact answer and reason.
+        """
+        try:
+            X = np.array([T for _, T in items])
+            Q_all, ok_all = ik_batch(self.model, X, q_seed=seed, return_all=True)
+        except Exception:  # noqa: B902 - fall back to the general solver
+            for stamp, T in items:
+                self._solve_one(stamp, T, 'pitch', seed)
+            return
+        tol_p, tol_o = self._kwargs['tol_position'], self._kwargs['tol_orientation']
+        best, sols_all, pending = [], [], []
+        for i, (stamp, T) in enumerate(items):
+            sols = _distinct(Q_all[i][ok_all[i]], seed)
+            if not sols:
+                self._solve_one(stamp, T, 'pitch', seed)
+                continue
+            pending.append(i)
+            best.append(sols[0])
+            sols_all.append(sols)
+        if not pending:
+            return
+        T_fk = ik_fk_batch(self._chain, np.array(best))
+        for k, i in enumerate(pending):
+            stamp, T = items[i]
+            task, details, _ = ik_make_task(self.model, T, 'pitch')
+            pe, oe = task.errors(T_fk[k])
+            if not (pe <= tol_p and oe <= tol_o):
+                self._solve_one(stamp, T, 'pitch', seed)
+                continue
+            res = IkResult(True, best[k], sols_all[k], self._batch_method, 0, float(pe),
+                           float(oe), '', details)
+            self._reply(stamp, res.q, DiagnosticStatus.OK, self._solved_message(res, 'pitch'),
+                        self._values(res, 'pitch'))
+
+    def _solved_message(self, res, mode: str) -> str:
+        if mode != 'pitch':
+            return 'solved'
+        roll = abs(float(res.details.get('unreachable_roll', 0.0)))
+        yaw = abs(float(res.details.get('unreachable_yaw', 0.0)))
+        if max(roll, yaw) <= self._orientation_tol:
+            return 'solved'
+        return (f'solved (warning: the target roll {roll:.4g} rad and yaw {yaw:.4g} rad that a '
+                f'{self.model.dof}-DOF arm cannot reach were dropped; position and pitch met)')
+
+    @staticmethod
+    def _values(res, mode: str):
+        vals = [('mode', mode), ('method', res.method), ('iterations', str(res.iterations)),
+                ('position_error', _fmt(res.position_error)),
+                ('orientation_error', _fmt(res.orientation_error)),
+                ('solutions', str(len(res.solutions)))]
+        if mode == 'pitch':
+            for key in ('unreachable_roll', 'unreachable_yaw'):
+                if key in res.details:
+                    vals.append((key, _fmt(float(res.details[key]))))
+        return vals
+
+    def _reply(self, stamp, q, level: int, message: str, values) -> None:
+        sol = self._solution
+        sol.header.stamp = stamp
+        sol.position = [] if q is None else [float(x) for x in q]
+        st = self._status
+        st.level = level
+        st.message = message
+        st.hardware_id = stamp_id(stamp)
+        st.values = [KeyValue(key=k, value=v) for k, v in values]
+        self._pub_solution.publish(sol)
+        self._pub_status.publish(st)
+        if level != DiagnosticStatus.OK:
+            self.get_logger().warning(f'ik request {st.hardware_id}: {message}',
+                                      throttle_duration_sec=1.0)
+
+    # ------------------------------------------------------------------ paths
+    def _on_path_request(self, msg: PoseArray) -> None:
+        stamp = msg.header.stamp
+        reply = JointTrajectory()
+        reply.header.stamp = stamp
+        reply.header.frame_id = msg.header.frame_id
+        reply.joint_names = list(self._names)
+        try:
+            if not msg.poses:
+                raise InvalidInputError('the path has no poses')
+            targets = []
+            modes = set()
+            for i, pose in enumerate(msg.poses):
+                try:
+                    T, mode = self._target(msg.header, pose)
+                except InvalidInputError as exc:
+                    raise InvalidInputError(f'pose {i}: {exc}') from None
+                targets.append(T)
+                modes.add(mode)
+            if len(modes) > 1:
+                raise InvalidInputError('the path mixes position-only poses (all-zero '
+                                        'quaternion) with oriented ones')
+            mode = modes.pop()
+            results = solve_path(self.model, targets, self._seed(), mode=mode,
+                                 q_nominal=self._nominal if mode == 'position' else None,
+                                 **self._kwargs)
+        except InvalidInputError as exc:
+            self._pub_path.publish(reply)
+            self._path_status(stamp, DiagnosticStatus.ERROR, f'invalid path request: {exc}',
+                              [('poses', str(len(msg.poses))), ('solved', '0')])
+            return
+        except Exception as exc:  # noqa: B902 - a request must never stop the node
+            self._pub_path.publish(reply)
+            self._path_status(stamp, DiagnosticStatus.ERROR, f'internal error: {exc!r}', [])
+            return
+        ok = [r for r in results if r.success]
+        for r in ok:
+            reply.points.append(JointTrajectoryPoint(positions=[float(x) for x in r.q]))
+        self._pub_path.publish(reply)
+        values = [('poses', str(len(targets))), ('solved', str(len(ok))), ('mode', mode),
+                  ('method', results[-1].method),
+                  ('iterations', str(sum(r.iterations for r in results))),
+                  ('position_error', _fmt(max((r.position_error for r in ok), default=0.0))),
+                  ('orientation_error',
+                   _fmt(max((r.orientation_error for r in ok), default=0.0)))]
+        if len(ok) == len(targets):
+            self._path_status(stamp, DiagnosticStatus.OK, 'solved', values)
+        else:
+            bad = results[-1]
+            values.append(('failed_index', str(bad.details.get('index', len(ok)))))
+            self._path_status(stamp, DiagnosticStatus.ERROR, bad.reason or 'no solution',
+                              values)
+
+    def _path_status(self, stamp, level: int, message: str, values) -> None:
+        st = DiagnosticStatus(level=level, name=self._diag_name, message=message,
+                              hardware_id=stamp_id(stamp),
+                              values=[KeyValue(key=k, value=v) for k, v in values])
+        self._pub_status.publish(st)
+        if level != DiagnosticStatus.OK:
+            self.get_logger().warning(f'ik path request {st.hardware_id}: {message}')
 
 
 def main(args=None):
-    """Say that this executable is not built yet and exit non-zero."""
-    print('px100_control: ik_service_node is not built yet', file=sys.stderr)
-    return 1
+    """Run the ik_service node (``ros2 run px100_control ik_service``)."""
+    from rclpy.executors import SingleThreadedExecutor
+    return spin_node(lambda options: IkServiceNode(), args, executor_class=SingleThreadedExecutor,
+                     description='Inverse kinematics service of px100_control '
+                                 '(ik/request -> ik/solution + ik/status, ik/path_request).')
 
 
 if __name__ == '__main__':
+    import sys
     sys.exit(main())

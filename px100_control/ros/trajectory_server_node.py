@@ -1,12 +1,510 @@
-"""Placeholder entry point: replaced when its node is built (see the issue tracker)."""
-import sys
+"""
+trajectory_server: action-style joint trajectory execution over standard messages.
+
+Topics and services are those of shared/reference/ros_interfaces.md, relative to
+``/<robot_name>``; the math lives in :mod:`px100_control.control.trajectory`.
+
+Goal semantics (what a client relies on):
+
+- A goal is a trajectory_msgs/JointTrajectory on ``trajectory/goal``; ``header.stamp`` is its id
+  (``'sec.nanosec'``; the GoalStatus UUID is ``stamp_uuid(stamp)``). ``joint_names`` is a subset
+  of the arm's joints in any order; arm joints not named hold where they are.
+- **One point** = a move from where the arm is (the setpoint being sent when a goal runs, else the
+  measured position) with the ``profile`` parameter. Its duration (Interbotix ``moving_time``)
+  is the point's ``time_from_start`` when > 0, else the ``moving_time`` parameter;
+  ``trapezoidal`` ramps take the ``accel_time`` parameter (clipped to duration/2);
+  ``linear_max_step`` lengthens the move if a setpoint step would exceed ``max_joint_step``.
+  ``profile``, ``moving_time`` and ``accel_time`` are read when a goal arrives, so a client
+  selects them per move with a SetParameters call answered before it publishes the goal
+  (sticky, like Interbotix ``set_trajectory_time``).
+- **Several points** = waypoints reached at their ``time_from_start`` with continuous velocity
+  (cubic Hermite; the given ``velocities``, else shape-preserving slopes, zero at the end;
+  quintic when velocities and accelerations are given). With ``profile: linear_max_step`` they
+  are joined linearly instead. A first point at t = 0 is the start: it must lie within
+  ``start_tolerance`` of the current position.
+- Status on ``trajectory/status`` (transient local, the last ``status_history`` goals) on every
+  transition: a valid goal goes ACCEPTED then EXECUTING; it ends SUCCEEDED once its time has
+  elapsed and every measured arm joint is within ``goal_tolerance`` of the end (ABORTED if that
+  takes longer than ``goal_time_tolerance``); ``trajectory/cancel`` makes it CANCELING while the
+  arm decelerates to rest (``stop_deceleration``) where it is, then CANCELED; a new goal
+  preempts it (CANCELED at once, the new move starting from the current setpoint and velocity).
+  An invalid goal (unknown joint, NaN, out of limits, times not increasing, too fast) is ABORTED
+  at once and nothing of it is sent. A stall (no ``joint_states`` for ``state_timeout``, a
+  tracking error above ``path_tolerance``) is ABORTED.
+- Every terminal status is published on ``/diagnostics`` (DiagnosticArray): name
+  ``<robot_name>/trajectory_server``, ``hardware_id`` = the goal id, ``message`` = the reason,
+  level OK (SUCCEEDED), WARN (CANCELED) or ERROR (ABORTED); it is logged too.
+- While a goal runs, setpoints (arm joints, position and velocity feed-forward) go to
+  ``commands/joint_setpoints`` at ``rate`` and, identical, to ``trajectory/feedback``.
+"""
+from collections import OrderedDict
+from dataclasses import dataclass, field
+import math
+import threading
+from typing import Optional
+
+from action_msgs.msg import GoalInfo, GoalStatus, GoalStatusArray
+from action_msgs.srv import CancelGoal
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+import numpy as np
+from px100_control.control import trajectory as tj
+from px100_control.errors import InvalidInputError
+from px100_control.ros.common import declare_robot_parameters, robot_name, robot_topic, spin_node
+from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
+                       ReliabilityPolicy)
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
+
+NODE_NAME = 'trajectory_server'
+STATUS_NAMES = {GoalStatus.STATUS_ACCEPTED: 'ACCEPTED', GoalStatus.STATUS_EXECUTING: 'EXECUTING',
+                GoalStatus.STATUS_CANCELING: 'CANCELING',
+                GoalStatus.STATUS_SUCCEEDED: 'SUCCEEDED',
+                GoalStatus.STATUS_CANCELED: 'CANCELED', GoalStatus.STATUS_ABORTED: 'ABORTED'}
+TERMINAL = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_CANCELED, GoalStatus.STATUS_ABORTED)
+DIAG_LEVEL = {GoalStatus.STATUS_SUCCEEDED: DiagnosticStatus.OK,
+              GoalStatus.STATUS_CANCELED: DiagnosticStatus.WARN,
+              GoalStatus.STATUS_ABORTED: DiagnosticStatus.ERROR}
+
+#: trajectory/status: transient local like common.LATCHED_QOS, deeper so that live readers see
+#: every transition (ACCEPTED and EXECUTING are published back to back)
+STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                        reliability=ReliabilityPolicy.RELIABLE)
+
+#: parameter -> (default, description); defaults mirror config/px100.yaml
+PARAMETERS = {
+    'rate': (200.0, 'setpoint rate [Hz] (read at start)'),
+    'profile': ('trapezoidal', 'one-point move profile: ' + ', '.join(tj.PROFILES)),
+    'moving_time': (2.0, 'duration of a one-point goal whose time_from_start is 0 [s]'),
+    'accel_time': (0.3, 'trapezoidal ramp time [s], clipped to moving_time/2'),
+    'max_joint_step': (0.01, 'linear_max_step: largest joint step between setpoints [rad]'),
+    'state_timeout': (0.5, 'abort a goal when joint_states stop for this long [s]'),
+    'path_tolerance': (0.2, 'abort when a joint is this far from its recent setpoints [rad]'),
+    'path_window': (0.2, 'tracking compares with the setpoints of the last path_window [s]'),
+    'goal_tolerance': (0.002, 'success when every joint is this close to the end [rad]'),
+    'goal_time_tolerance': (1.0, 'time allowed after the trajectory to settle [s]'),
+    'stop_deceleration': (10.0, 'deceleration of a canceled goal [rad/s^2]'),
+    'start_tolerance': (0.05, 'a first point at t=0 must be this close to the start [rad]'),
+    'status_history': (50, 'number of recent goals kept in trajectory/status'),
+}
+
+
+@dataclass
+class _Goal:
+    """A goal being executed (node-side bookkeeping)."""
+
+    key: tuple
+    status: GoalStatus
+    traj: tj.Trajectory
+    t_start: int  # node-clock ns
+    phase: str = 'executing'  # executing | canceling
+    last_q: Optional[np.ndarray] = None
+    last_qd: Optional[np.ndarray] = None
+    info: dict = field(default_factory=dict)
+
+
+class TrajectoryServerNode(Node):
+    """Execute joint trajectories action-style: goal topic, status, cancel service, setpoints."""
+
+    def __init__(self, **node_kwargs):
+        super().__init__(NODE_NAME, **node_kwargs)
+        self.model = declare_robot_parameters(self)
+        for name, (default, description) in PARAMETERS.items():
+            self.declare_parameter(name, default)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        bad = self._check_parameters(
+            [self.get_parameter(name) for name in PARAMETERS]).reason
+        if bad:
+            raise InvalidInputError(f'trajectory_server parameters: {bad}')
+        self._n = self.model.dof
+        self._names = list(self.model.joint_names)
+        self._index = {name: i for i, name in enumerate(self._names)}
+        self._lock = threading.RLock()
+        self._rate = float(self.get_parameter('rate').value)
+        self._diag_name = f'{robot_name(self) or "px100"}/{NODE_NAME}'
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        # measured state (arm joints in group order) and when it arrived (steady ns)
+        self._meas = np.full(self._n, np.nan)
+        self._meas_steady_ns: Optional[int] = None
+        self._js_map_names = None
+        self._js_map = None
+        self._active: Optional[_Goal] = None
+        self._history: 'OrderedDict[tuple, GoalStatus]' = OrderedDict()
+
+        self._pub_setpoint = self.create_publisher(
+            JointState, robot_topic(self, 'commands/joint_setpoints'), 10)
+        self._pub_feedback = self.create_publisher(
+            JointState, robot_topic(self, 'trajectory/feedback'), 10)
+        self._pub_status = self.create_publisher(
+            GoalStatusArray, robot_topic(self, 'trajectory/status'), STATUS_QOS)
+        self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self.create_subscription(JointState, robot_topic(self, 'joint_states'),
+                                 self._on_joint_states, qos_profile_sensor_data)
+        self.create_subscription(JointTrajectory, robot_topic(self, 'trajectory/goal'),
+                                 self._on_goal, QoSProfile(depth=10))
+        self.create_service(CancelGoal, robot_topic(self, 'trajectory/cancel'), self._on_cancel)
+        self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
+        self._watchdog = self.create_timer(0.02, self._on_watchdog, clock=self._steady)
+        self._setpoint = JointState()
+        self._setpoint.name = list(self._names)
+        self._publish_status()
+        self.get_logger().info(
+            f'trajectory_server ready: {self.model.name} joints {self._names}, '
+            f'{self._rate:g} Hz, profile {self.get_parameter("profile").value}')
+
+    # ------------------------------------------------------------------ parameters
+    def _check_parameters(self, params) -> SetParametersResult:
+        for p in params:
+            v = p.value
+            if p.name == 'profile' and v not in tj.PROFILES:
+                return SetParametersResult(
+                    successful=False,
+                    reason=f"profile must be one of {', '.join(tj.PROFILES)}, got '{v}'")
+            if p.name in ('rate', 'moving_time', 'max_joint_step', 'state_timeout',
+                          'path_tolerance', 'goal_tolerance', 'stop_deceleration'):
+                if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                    return SetParametersResult(successful=False,
+                                               reason=f'{p.name} must be > 0, got {v!r}')
+            if p.name in ('accel_time', 'goal_time_tolerance', 'start_tolerance', 'path_window'):
+                if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                    return SetParametersResult(successful=False,
+                                               reason=f'{p.name} must be >= 0, got {v!r}')
+            if p.name == 'status_history' and (not isinstance(v, int) or v < 1):
+                return SetParametersResult(successful=False,
+                                           reason=f'status_history must be >= 1, got {v!r}')
+        return SetParametersResult(successful=True)
+
+    def _param(self, name):
+        return self.get_parameter(name).value
+
+    # ------------------------------------------------------------------ inputs
+    def _on_joint_states(self, msg: JointState) -> None:
+        names = msg.name
+        if names != self._js_map_names:
+            self._js_map_names = list(names)
+            self._js_map = [(i, self._index[x]) for i, x in enumerate(names) if x in self._index]
+        pos = msg.position
+        with self._lock:
+            for i, j in self._js_map:
+                if i < len(pos):
+                    self._meas[j] = pos[i]
+            self._meas_steady_ns = self._steady.now().nanoseconds
+
+    def _state_age(self) -> float:
+        """Return seconds since the last joint_states (inf if none)."""
+        if self._meas_steady_ns is None:
+            return math.inf
+        return (self._steady.now().nanoseconds - self._meas_steady_ns) * 1e-9
+
+    def _on_goal(self, msg: JointTrajectory) -> None:
+        key = stamp_key(msg.header.stamp)
+        with self._lock:
+            if self._active is not None and self._active.key == key:
+                self._diagnose(key, DiagnosticStatus.ERROR,
+                               f'duplicate goal id {stamp_id(msg.header.stamp)} ignored: that '
+                               'goal is still running', 'IGNORED')
+                return
+            try:
+                traj, info = self._plan(msg)
+            except (InvalidInputError, ValueError, TypeError) as exc:
+                self._reject(msg.header.stamp, str(exc))
+                return
+            except Exception as exc:  # noqa: B902 - a bad goal must never stop the node
+                self._reject(msg.header.stamp, f'internal error planning the goal: {exc!r}')
+                return
+            now = self.get_clock().now().nanoseconds
+            if self._active is not None:
+                old = self._active
+                self._active = None
+                self._finish(old, GoalStatus.STATUS_CANCELED,
+                             f'preempted by goal {stamp_id(msg.header.stamp)}')
+            status = self._new_status(msg.header.stamp, GoalStatus.STATUS_ACCEPTED)
+            self._publish_status()
+            goal = _Goal(key=key, status=status, traj=traj, t_start=now, info=info)
+            status.status = GoalStatus.STATUS_EXECUTING
+            self._publish_status()
+            self._active = goal
+            self.get_logger().info(
+                f'goal {stamp_id(msg.header.stamp)} accepted: {info["kind"]}, '
+                f'{traj.duration:.3f} s')
+            self._on_tick()
+
+    def _plan(self, msg: JointTrajectory):
+        """Validate a goal and plan it from the current state; raise InvalidInputError."""
+        names = list(msg.joint_names)
+        pts = msg.points
+        times = [seconds(p.time_from_start) for p in pts]
+        positions = [list(p.positions) for p in pts]
+        vels = [list(p.velocities) for p in pts]
+        accs = [list(p.accelerations) for p in pts]
+        m = self.model
+        reason = tj.validate_points(self._names, names, times, positions, vels, accs,
+                                    m.lower, m.upper, m.velocity_limits)
+        if reason:
+            raise InvalidInputError(reason)
+        age = self._state_age()
+        if age > float(self._param('state_timeout')) or np.any(np.isnan(self._meas)):
+            raise InvalidInputError(
+                'no joint_states from the driver' if math.isinf(age) else
+                f'driver not publishing joint_states (last one {age:.2f} s ago)')
+        if self._active is not None:
+            q0, v0 = self._current_setpoint(self._active)
+        else:
+            q0, v0 = self._meas.copy(), np.zeros(self._n)
+        idx = [self._index[x] for x in names]
+        profile = str(self._param('profile'))
+        period = 1.0 / self._rate
+        step = float(self._param('max_joint_step'))
+        if len(pts) == 1:
+            q1 = q0.copy()
+            q1[idx] = positions[0]
+            T = times[0] if times[0] > 0.0 else float(self._param('moving_time'))
+            accel = float(self._param('accel_time'))
+            traj = tj.plan_move(q0, q1, T, profile, accel, v_start=v0, max_joint_step=step,
+                                period=period)
+            info = {'kind': f'one-point {profile} move (moving_time {T:g} s'
+                            + (f', accel_time {min(accel, T / 2):g} s)'
+                               if profile == 'trapezoidal' else ')')}
+        else:
+            if times[0] <= 0.0:
+                gap = float(np.max(np.abs(np.asarray(positions[0]) - q0[idx])))
+                if gap > float(self._param('start_tolerance')):
+                    raise InvalidInputError(
+                        f'point 0 at t=0 is {gap:.4g} rad from the current position '
+                        f'(start_tolerance {self._param("start_tolerance")} rad)')
+                times, positions, vels, accs = times[1:], positions[1:], vels[1:], accs[1:]
+            full = np.tile(q0, (len(times), 1))
+            full[:, idx] = np.asarray(positions, dtype=float)
+            given_v = all(len(v) == len(names) for v in vels)
+            given_a = given_v and all(len(a) == len(names) for a in accs)
+            vfull = afull = None
+            if given_v:
+                vfull = np.zeros_like(full)
+                vfull[:, idx] = np.asarray(vels, dtype=float)
+            if given_a:
+                afull = np.zeros_like(full)
+                afull[:, idx] = np.asarray(accs, dtype=float)
+            linear = profile == 'linear_max_step'
+            traj = tj.plan_waypoints(q0, times, full, vfull, afull, v_start=v0,
+                                     interpolation='linear' if linear else 'spline',
+                                     max_joint_step=step if linear else 0.0, period=period)
+            info = {'kind': f'{len(times)}-waypoint {"linear" if linear else "spline"} '
+                            'trajectory'}
+        reason = tj.check_trajectory(traj, self._names, m.lower, m.upper, m.velocity_limits,
+                                     dt=min(period, 1e-3))
+        if reason:
+            raise InvalidInputError(reason)
+        return traj, info
+
+    def _current_setpoint(self, goal: _Goal):
+        t = (self.get_clock().now().nanoseconds - goal.t_start) * 1e-9
+        q, qd, _ = goal.traj.sample(t)
+        return q, qd
+
+    def _on_cancel(self, request, response):
+        """Cancel per action_msgs/srv/CancelGoal (by UUID, by stamp, or all when zero)."""
+        uuid = _uuid_bytes(request.goal_info.goal_id.uuid)
+        stamp = stamp_key(request.goal_info.stamp)
+        by_id, by_stamp = any(uuid), stamp != (0, 0)
+        with self._lock:
+            g = self._active
+            if g is not None and ((not by_id and not by_stamp)
+                                  or (by_id and _uuid_bytes(g.status.goal_info.goal_id.uuid)
+                                      == uuid)
+                                  or (by_stamp and g.key <= stamp)):
+                if g.phase != 'canceling':
+                    self._start_cancel(g)
+                response.goals_canceling = [g.status.goal_info]
+                response.return_code = CancelGoal.Response.ERROR_NONE
+                return response
+            named = None
+            for key, st in self._history.items():
+                if (by_id and _uuid_bytes(st.goal_info.goal_id.uuid) == uuid) or (
+                        not by_id and by_stamp and key == stamp):
+                    named = st
+            if named is not None and named.status in TERMINAL:
+                response.return_code = CancelGoal.Response.ERROR_GOAL_TERMINATED
+            elif by_id:
+                response.return_code = CancelGoal.Response.ERROR_UNKNOWN_GOAL_ID
+            else:
+                response.return_code = CancelGoal.Response.ERROR_REJECTED
+            return response
+
+    def _start_cancel(self, goal: _Goal) -> None:
+        q, qd = self._current_setpoint(goal)
+        goal.traj = tj.plan_stop(q, qd, float(self._param('stop_deceleration')))
+        goal.t_start = self.get_clock().now().nanoseconds
+        goal.phase = 'canceling'
+        goal.status.status = GoalStatus.STATUS_CANCELING
+        self._publish_status()
+        self.get_logger().info(f'goal {self._id(goal)} canceling: stopping in '
+                               f'{goal.traj.duration:.3f} s')
+
+    # ------------------------------------------------------------------ execution
+    def _on_tick(self) -> None:
+        with self._lock:
+            g = self._active
+            if g is None:
+                return
+            t = (self.get_clock().now().nanoseconds - g.t_start) * 1e-9
+            q, qd, _ = g.traj.sample(t)
+            g.last_q, g.last_qd = q, qd
+            self._send(q, qd)
+            if g.phase == 'canceling':
+                if t >= g.traj.duration:
+                    self._active = None
+                    self._finish(g, GoalStatus.STATUS_CANCELED,
+                                 'canceled: at rest at ' + self._fmt(q))
+                return
+            if t < g.traj.duration:
+                err = self._tracking_error(g, t)
+                j = int(np.argmax(err))
+                if err[j] > float(self._param('path_tolerance')):
+                    self._active = None
+                    self._hold_measured()
+                    self._finish(g, GoalStatus.STATUS_ABORTED,
+                                 f"tracking error of joint '{self._names[j]}' is "
+                                 f'{err[j]:.4g} rad (path_tolerance '
+                                 f'{self._param("path_tolerance")} rad) at t = {t:.3f} s: '
+                                 'joint blocked or driver not following')
+                return
+            err = np.abs(self._meas - q)
+            tol = float(self._param('goal_tolerance'))
+            if float(np.max(err)) <= tol:
+                self._active = None
+                self._finish(g, GoalStatus.STATUS_SUCCEEDED,
+                             f'reached within {float(np.max(err)):.2g} rad at t = {t:.3f} s '
+                             f'(trajectory {g.traj.duration:.3f} s)')
+            elif t > g.traj.duration + float(self._param('goal_time_tolerance')):
+                j = int(np.argmax(err))
+                self._active = None
+                self._finish(g, GoalStatus.STATUS_ABORTED,
+                             f"joint '{self._names[j]}' did not settle: error {err[j]:.4g} rad "
+                             f'> goal_tolerance {tol} rad, '
+                             f'{t - g.traj.duration:.2f} s after the trajectory ended')
+
+    def _tracking_error(self, goal: _Goal, t: float) -> np.ndarray:
+        """
+        Return (n,) how far each measured joint lies outside its recent setpoints [rad].
+
+        The setpoints of the last ``path_window`` seconds span an interval per joint; being
+        anywhere inside it (the driver lagging behind) is no error.
+        """
+        w = float(self._param('path_window'))
+        q_a = goal.traj.sample(t - w)[0]
+        q_b = goal.traj.sample(t - 0.5 * w)[0]
+        q_c = goal.last_q
+        lo = np.minimum(np.minimum(q_a, q_b), q_c)
+        hi = np.maximum(np.maximum(q_a, q_b), q_c)
+        return np.maximum(np.maximum(self._meas - hi, lo - self._meas), 0.0)
+
+    def _on_watchdog(self) -> None:
+        with self._lock:
+            g = self._active
+            if g is None:
+                return
+            age = self._state_age()
+            if age > float(self._param('state_timeout')):
+                self._active = None
+                self._finish(g, GoalStatus.STATUS_ABORTED,
+                             f'driver not publishing joint_states (none for {age:.2f} s, '
+                             f'state_timeout {self._param("state_timeout")} s)')
+
+    def _send(self, q, qd) -> None:
+        msg = self._setpoint
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.position = q.tolist()
+        msg.velocity = qd.tolist()
+        self._pub_setpoint.publish(msg)
+        self._pub_feedback.publish(msg)
+
+    def _hold_measured(self) -> None:
+        if not np.any(np.isnan(self._meas)):
+            self._send(self._meas.copy(), np.zeros(self._n))
+
+    # ------------------------------------------------------------------ status
+    def _id(self, goal: _Goal) -> str:
+        return stamp_id(goal.status.goal_info.stamp)
+
+    def _new_status(self, stamp, status: int) -> GoalStatus:
+        key = stamp_key(stamp)
+        st = GoalStatus()
+        st.goal_info = GoalInfo()
+        st.goal_info.stamp = stamp
+        st.goal_info.goal_id.uuid = list(stamp_uuid(stamp))
+        st.status = status
+        self._history.pop(key, None)
+        self._history[key] = st
+        limit = int(self._param('status_history'))
+        while len(self._history) > limit:
+            self._history.popitem(last=False)
+        return st
+
+    def _publish_status(self) -> None:
+        msg = GoalStatusArray()
+        msg.status_list = list(self._history.values())
+        self._pub_status.publish(msg)
+
+    def _reject(self, stamp, reason: str) -> None:
+        self._new_status(stamp, GoalStatus.STATUS_ABORTED)
+        self._publish_status()
+        self._diagnose(stamp_key(stamp), DiagnosticStatus.ERROR, f'invalid goal: {reason}',
+                       'ABORTED')
+        self.get_logger().error(f'goal {stamp_id(stamp)} ABORTED (invalid, nothing sent): '
+                                f'{reason}')
+
+    def _finish(self, goal: _Goal, status: int, reason: str) -> None:
+        goal.status.status = status
+        self._publish_status()
+        name = STATUS_NAMES[status]
+        self._diagnose(goal.key, DIAG_LEVEL[status], reason, name)
+        log = self.get_logger()
+        text = f'goal {self._id(goal)} {name}: {reason}'
+        if status == GoalStatus.STATUS_ABORTED:
+            log.error(text)
+        elif status == GoalStatus.STATUS_CANCELED:
+            log.warning(text)
+        else:
+            log.info(text)
+
+    def _diagnose(self, key: tuple, level: int, message: str, status: str) -> None:
+        arr = DiagnosticArray()
+        arr.header.stamp = self.get_clock().now().to_msg()
+        arr.status = [DiagnosticStatus(
+            level=level, name=self._diag_name, message=message,
+            hardware_id=f'{key[0]}.{key[1]:09d}',
+            values=[KeyValue(key='status', value=status)])]
+        self._pub_diag.publish(arr)
+
+    @staticmethod
+    def _fmt(q) -> str:
+        return '[' + ', '.join(f'{x:.4f}' for x in q) + ']'
+
+    # ------------------------------------------------------------------ introspection
+    def goal_statuses(self) -> dict:
+        """Return {goal id: status name} of the recent goals (for tests and tools)."""
+        with self._lock:
+            return {f'{k[0]}.{k[1]:09d}': STATUS_NAMES.get(v.status, str(v.status))
+                    for k, v in self._history.items()}
+
+
+def _uuid_bytes(uuid) -> bytes:
+    """Return a unique_identifier_msgs/UUID field as 16 bytes."""
+    return np.asarray(uuid, dtype=np.uint8).tobytes()
 
 
 def main(args=None):
-    """Say that this executable is not built yet and exit non-zero."""
-    print('px100_control: trajectory_server_node is not built yet', file=sys.stderr)
-    return 1
+    """Run the trajectory_server node (``ros2 run px100_control trajectory_server``)."""
+    from rclpy.executors import SingleThreadedExecutor
+    return spin_node(lambda options: TrajectoryServerNode(), args,
+                     executor_class=SingleThreadedExecutor,
+                     description='Action-style joint trajectory server of px100_control '
+                                 '(trajectory/goal, trajectory/status, trajectory/cancel).')
 
 
 if __name__ == '__main__':
+    import sys
     sys.exit(main())
