@@ -90,6 +90,9 @@ def render_workspace_png(model, path: str, samples: int = 20000, seed: int = 0) 
                 ax1.plot(g.u2 + g.L4 + radius * np.cos(t), -(g.v2 + radius * np.sin(t)),
                          style, color='tab:red', lw=1.0,
                          label=f'torus bound at pitch 0 ({radius:.3f} m)')
+            outer = g.Lr + g.L3 + g.L4
+            ax1.plot(g.u2 + outer * np.cos(t), -g.v2 + outer * np.sin(t), ':', color='k',
+                     lw=1.0, label=f'reach bound, any pitch ({outer:.3f} m from the shoulder)')
         except Exception:  # noqa: BLE001 - the bounds are decoration only
             pass
     ax1.axis('equal')

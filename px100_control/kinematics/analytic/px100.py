@@ -447,11 +447,11 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
             return (f'pose not reachable by a 4-DOF arm: the position is {abs(off):.4g} m off '
                     f'the vertical plane of the tool heading {t:.4g} rad')
         phi = math.atan2(-G[2, 0], G[2, 2])
-        pitch = _wrap(phi + g.mu)
+        pitch = _wrap(phi + g.mu) + 0.0
         margin = reach_margin(model, T[:3, 3], pitch)
         return _reach_words(margin, f' at pitch {pitch:.4g} rad')
     if mode == 'pitch':
-        _, pitch = target_pitch(g, T)
+        pitch = target_pitch(g, T)[1] + 0.0          # + 0.0: no '-0' in the words
         return _reach_words(reach_margin(model, T[:3, 3], pitch), f' at pitch {pitch:.4g} rad')
     return _reach_words(reach_margin(model, T[:3, 3]), '')
 
