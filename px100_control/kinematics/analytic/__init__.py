@@ -10,6 +10,14 @@ returning every closed-form candidate for the (4, 4) target in ``model.base_fram
 ``solve.solve_ik`` verifies each by FK, filters limits and orders them by distance to the seed.
 A module may also define ``unreachable_reason(model, T_target, mode) -> str`` to explain an
 empty result in words (e.g. 'target is 0.031 m beyond the maximum reach').
+
+Optional extras that ``solve`` and ``workspace`` use when present: ``complete = True`` (the
+candidates are every solution, so no iterative fallback is tried);
+``position_solutions(model, T_target, q_nominal, check_limits=True) -> (k, n)`` ('position'
+mode with the free angles already chosen by the secondary task toward q_nominal);
+``solve_batch(model, targets, q_seed=None, check_limits=True, return_all=False)`` (vectorised
+``solve_ik_batch``); ``reach_margin(model, p, pitch=None) -> float`` [m] (``is_reachable``).
+In 'pitch' mode ``solve_ik`` passes the target with its yaw already forced (``pitch_target``).
 """
 import importlib
 from types import ModuleType
