@@ -8,7 +8,7 @@ Stress harness: the real px100 nodes as processes, a probe node that fuzzes and 
   ``commands/joint_setpoints`` message is checked (known, unique names; lengths; finite values;
   positions within the URDF limits; setpoint velocities within the velocity limits) and the
   receive times give publish rates. Setpoints the probe itself published (fuzz input to the
-  driver) are recognised by their serialised bytes and not counted as the nodes' output.
+  driver) are recognised by their content and not counted as the nodes' output.
 - :func:`fuzz` drives one hypothesis campaign: each generated message is sent, then the harness
   waits for the node's answer to it (ik/status by request id, a trajectory/status naming the goal,
   the service response, or the driver's next joint_states) before the next one, so a failure is
@@ -16,6 +16,7 @@ Stress harness: the real px100 nodes as processes, a probe node that fuzzes and 
 
 Units: s, rad, m. Everything here talks to the nodes over DDS only (the public contract).
 """
+import array
 from collections import defaultdict, deque
 from dataclasses import dataclass, field
 import math
@@ -33,7 +34,6 @@ import rclpy
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
@@ -86,6 +86,20 @@ def short(msg, limit: int = 600) -> str:
     """Return a readable description of a (possibly megabyte-sized) message, cut to limit."""
     text = _brief(msg)
     return text if len(text) <= limit else text[:limit] + f'... ({len(text)} chars)'
+
+
+def joint_state_key(msg: JointState) -> tuple:
+    """
+    Return the identity of a JointState by content (bit-exact floats, NaN sign included).
+
+    Serialised bytes cannot serve: CDR padding bytes are not initialised, so two serialisations
+    of one message differ.
+    """
+    def cut(text):  # strings travel as C strings: nothing after a NUL arrives
+        return text.split('\x00', 1)[0]
+    return (msg.header.stamp.sec, msg.header.stamp.nanosec, cut(msg.header.frame_id),
+            tuple(cut(n) for n in msg.name), array.array('d', msg.position).tobytes(),
+            array.array('d', msg.velocity).tobytes(), array.array('d', msg.effort).tobytes())
 
 
 # -- processes -------------------------------------------------------------------------------
@@ -304,6 +318,9 @@ class Probe:
         self.diagnostics: List[DiagnosticStatus] = []
         self.last_joint_state: Optional[JointState] = None
         self._setpoint_log: Optional[list] = None
+        #: valid probe goals ended and those the server aborted for tracking (see goal_works)
+        self.goals_checked = 0
+        self.tracking_aborts: List[str] = []
         n = self.node
         t = self.topic
         n.create_subscription(JointState, t('joint_states'), self._on_joint_states, SENSOR)
@@ -357,7 +374,7 @@ class Probe:
             self.cond.notify_all()
 
     def _on_setpoints(self, msg: JointState) -> None:
-        if serialize_message(msg) in self.own_setpoints:
+        if joint_state_key(msg) in self.own_setpoints:
             return
         log = self._setpoint_log
         if log is not None:
@@ -465,7 +482,7 @@ class Probe:
 
     def publish_setpoint(self, msg: JointState) -> None:
         """Publish a setpoint as the probe (not checked as node output)."""
-        self.own_setpoints.add(serialize_message(msg))
+        self.own_setpoints.add(joint_state_key(msg))
         self.pub_setpoints.publish(msg)
 
     def call(self, client, request, timeout: float = 2.0):

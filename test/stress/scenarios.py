@@ -17,7 +17,7 @@ from typing import Dict, List, Optional
 from action_msgs.msg import GoalStatus
 
 from .harness import Graph, Probe, stamp_text
-from .targets import goal_works, ik_works
+from .targets import goal_works, ik_works, SLEEP
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -174,9 +174,9 @@ def slow_subscriber(graph: Graph, probe: Probe, lim, model, mode: str,
     out = {'mode': mode, 'started': line.strip() == 'ready'}
     time.sleep(1.0)  # matched by the nodes' publishers
     t0 = time.monotonic()
-    out['goal'] = goal_works(probe, lim, target=[0.3, -0.1, 0.2, 0.0], duration=1.0)
+    out['goal'] = goal_works(probe, lim)
     out['ik'] = ik_works(probe, model)
-    out['goal_back'] = goal_works(probe, lim, duration=1.0)
+    out['goal_back'] = goal_works(probe, lim, target=SLEEP)
     rest = window - (time.monotonic() - t0)
     if rest > 0:
         time.sleep(rest)
@@ -329,7 +329,8 @@ def recorder_sigkill(graph: Graph, probe: Probe, lim, bag_dir: str, run_s: float
         time.sleep(0.05)
     time.sleep(0.5)
     t_start = time.time()
-    goal_works(probe, lim, target=[0.4, 0.1, 0.1, 0.0], duration=1.0)
+    goal_works(probe, lim)
+    goal_works(probe, lim, target=SLEEP)
     rest = run_s - (time.time() - t_start)
     if rest > 0:
         time.sleep(rest)
@@ -364,14 +365,8 @@ def _exe(name: str) -> str:
 def _project_reader_count(bag_dir: str):
     """Return how many messages px100_control's own bag reader yields (or the error text)."""
     try:
-        from px100_control.bag import reader as bag_reader
-    except ImportError as exc:
-        return f'no reader: {exc}'
-    try:
-        for name in ('read_messages', 'iter_messages', 'messages'):
-            fn = getattr(bag_reader, name, None)
-            if fn is not None:
-                return sum(1 for _ in fn(bag_dir))
-        return 'no read function found'
+        from px100_control.bag.reader import open_bag
+        with open_bag(bag_dir) as bag:
+            return sum(1 for _ in bag.iter_raw())
     except Exception as exc:  # noqa: B902 - report what the reader said
         return f'{type(exc).__name__}: {exc}'
