@@ -1,0 +1,335 @@
+"""
+Plots of a recorded run: joint positions and setpoints, tracking error, end-effector path, GIF.
+
+:func:`extract_series` pulls the time series out of a bag (``joint_states``, ``commands/
+joint_setpoints``, ``trajectory/feedback``, ``ee_pose`` of one robot namespace); the plot
+functions draw them with matplotlib's Agg backend (no display needed) and return the file they
+wrote. Times are seconds from the start of the bag, positions in rad (m for prismatic joints),
+the end-effector path in m in the robot's base frame.
+"""
+from dataclasses import dataclass, field
+import os
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+from px100_control.bag.reader import BagReader
+from px100_control.errors import BagError
+
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+POSE_STAMPED = 'geometry_msgs/msg/PoseStamped'
+STRING = 'std_msgs/msg/String'
+
+
+@dataclass
+class BagSeries:
+    """
+    Time series of one robot in a bag (times [s] from the bag start).
+
+    ``q`` is (N, J) with NaN where a joint was missing from a message.
+    """
+
+    namespace: str
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    names: List[str] = field(default_factory=list)
+    q: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    setpoints: Dict[str, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    feedback: Dict[str, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    ee_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ee_xyz: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    urdf_xml: Optional[str] = None
+    start_ns: int = 0
+
+    def positions_at(self, i: int) -> Dict[str, float]:
+        """Return {joint: position} of joint_states sample i (NaN entries left out)."""
+        return {n: float(v) for n, v in zip(self.names, self.q[i]) if np.isfinite(v)}
+
+
+def _namespaces(topics: Dict[str, str]) -> List[str]:
+    return sorted({name[:-len('/joint_states')] for name, type_name in topics.items()
+                   if name.endswith('/joint_states') and type_name == JOINT_STATE})
+
+
+def _joint_series(raw_msgs, start_ns) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    per: Dict[str, Tuple[list, list]] = {}
+    for t_ns, msg in raw_msgs:
+        t = (t_ns - start_ns) * 1e-9
+        for name, value in zip(msg.name, msg.position):
+            ts, vs = per.setdefault(name, ([], []))
+            ts.append(t)
+            vs.append(value)
+    return {n: (np.array(ts), np.array(vs, dtype=float)) for n, (ts, vs) in per.items()}
+
+
+def extract_series(reader: BagReader, namespace: Optional[str] = None) -> BagSeries:
+    """
+    Return the joint/setpoint/end-effector series of one robot namespace of a bag.
+
+    :param namespace: e.g. '/px100' (default: the first namespace with joint_states)
+    :raises BagError: the namespace has no joint_states in the bag
+    """
+    spaces = _namespaces(reader.topics)
+    if namespace is None:
+        namespace = spaces[0] if spaces else ''
+    namespace = '/' + namespace.strip('/') if namespace.strip('/') else ''
+    js_topic = f'{namespace}/joint_states'
+    series = BagSeries(namespace=namespace)
+    wanted = {js_topic: 'js', f'{namespace}/commands/joint_setpoints': 'sp',
+              f'{namespace}/trajectory/feedback': 'fb', f'{namespace}/ee_pose': 'ee',
+              f'{namespace}/robot_description': 'desc'}
+    present = [t for t in wanted if t in reader.topics]
+    if js_topic not in reader.topics:
+        return series
+    msgs: Dict[str, list] = {k: [] for k in wanted.values()}
+    for raw, msg in reader.iter_decoded(present):
+        msgs[wanted[raw.topic]].append((raw.log_time_ns, msg))
+    js = msgs['js']
+    if not js:
+        return series
+    series.start_ns = start = min(m[0] for v in msgs.values() for m in v)
+    names: List[str] = []
+    for _, m in js:
+        for n in m.name:
+            if n not in names:
+                names.append(n)
+    q = np.full((len(js), len(names)), np.nan)
+    index = {n: i for i, n in enumerate(names)}
+    for k, (_, m) in enumerate(js):
+        for n, v in zip(m.name, m.position):
+            q[k, index[n]] = v
+    series.t = np.array([(t - start) * 1e-9 for t, _ in js])
+    series.names, series.q = names, q
+    series.setpoints = _joint_series(msgs['sp'], start)
+    series.feedback = _joint_series(msgs['fb'], start)
+    if msgs['ee']:
+        series.ee_t = np.array([(t - start) * 1e-9 for t, _ in msgs['ee']])
+        series.ee_xyz = np.array([[m.pose.position.x, m.pose.position.y, m.pose.position.z]
+                                  for _, m in msgs['ee']])
+    if msgs['desc']:
+        series.urdf_xml = msgs['desc'][-1][1].data
+    return series
+
+
+def hold_values(t_query: np.ndarray, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """
+    Return v held from its last sample at or before each t_query (NaN before the first).
+
+    Example Input: t_query [0, 1.5, 3], t [1, 2], v [10, 20]. Output: [nan, 10, 20]
+    """
+    idx = np.searchsorted(t, t_query, side='right') - 1
+    out = np.full(len(t_query), np.nan)
+    ok = idx >= 0
+    out[ok] = v[idx[ok]]
+    return out
+
+
+def tracking_errors(series: BagSeries) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    """
+    Return {joint: (t, setpoint - measured)} at the joint_states samples.
+
+    Only samples after the joint's first setpoint count; the latest setpoint is held between
+    setpoint messages.
+    """
+    out = {}
+    for name, (ts, vs) in series.setpoints.items():
+        if name not in series.names or len(ts) == 0:
+            continue
+        held = hold_values(series.t, ts, vs)
+        err = held - series.q[:, series.names.index(name)]
+        ok = np.isfinite(err)
+        out[name] = (series.t[ok], err[ok])
+    return out
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _grid(n: int) -> Tuple[int, int]:
+    cols = 1 if n <= 3 else 2
+    return int(np.ceil(n / cols)), cols
+
+
+def plot_joints(series: BagSeries, path: str, title: str = '') -> str:
+    """Draw each joint's measured position and its setpoints over time; return path."""
+    plt = _pyplot()
+    if not series.names:
+        raise BagError('no joint_states to plot')
+    rows, cols = _grid(len(series.names))
+    fig, axes = plt.subplots(rows, cols, figsize=(6.5 * cols, 2.2 * rows + 0.8), sharex=True,
+                             squeeze=False)
+    for k, name in enumerate(series.names):
+        ax = axes[k // cols][k % cols]
+        ax.plot(series.t, series.q[:, k], color='tab:blue', lw=1.4, label='measured')
+        if name in series.feedback:
+            ts, vs = series.feedback[name]
+            ax.plot(ts, vs, color='tab:green', lw=1.0, ls='--', label='trajectory feedback')
+        if name in series.setpoints:
+            ts, vs = series.setpoints[name]
+            ax.step(ts, vs, where='post', color='tab:orange', lw=1.0, label='setpoint')
+        unit = 'm' if 'finger' in name else 'rad'
+        ax.set_ylabel(f'{name} [{unit}]', fontsize=8)
+        ax.grid(True, alpha=0.3)
+        if k == 0:
+            ax.legend(fontsize=7, loc='best')
+    for k in range(len(series.names), rows * cols):
+        axes[k // cols][k % cols].set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel('time [s]')
+    fig.suptitle(title or f'{series.namespace or "/"}: joint positions and setpoints')
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_tracking_error(series: BagSeries, path: str, title: str = '') -> str:
+    """Draw setpoint - measured per joint over time; return path."""
+    plt = _pyplot()
+    errors = tracking_errors(series)
+    if not errors:
+        raise BagError('no setpoints (commands/joint_setpoints) to compute a tracking error')
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for name, (ts, err) in errors.items():
+        rms = float(np.sqrt(np.mean(err ** 2))) if len(err) else float('nan')
+        ax.plot(ts, err, lw=1.0, label=f'{name} (rms {rms:.4g}, max {np.max(np.abs(err)):.4g})')
+    ax.axhline(0.0, color='k', lw=0.6)
+    ax.set_xlabel('time [s]')
+    ax.set_ylabel('setpoint - measured [rad or m]')
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc='best')
+    ax.set_title(title or f'{series.namespace or "/"}: tracking error')
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def ee_path(series: BagSeries, tree=None, ee_link: str = 'ee_gripper_link'
+            ) -> Tuple[np.ndarray, np.ndarray, str]:
+    """
+    Return (t, (N, 3) xyz [m], source) of the end-effector: ee_pose, else FK of joint_states.
+
+    :param tree: a TfTree of the robot (for the FK fallback)
+    """
+    if len(series.ee_t):
+        return series.ee_t, series.ee_xyz, 'ee_pose'
+    if tree is None or not series.names:
+        return np.zeros(0), np.zeros((0, 3)), ''
+    link = _find_link(tree, ee_link)
+    xyz = np.array([tree.link_poses(series.positions_at(i))[link][:3, 3]
+                    for i in range(len(series.t))])
+    return series.t, xyz, 'forward kinematics of joint_states'
+
+
+def _find_link(tree, name: str) -> str:
+    for link in tree.links:
+        if link == name or link.endswith('/' + name):
+            return link
+    return tree.links[-1]
+
+
+def plot_ee_path(t: np.ndarray, xyz: np.ndarray, path: str, title: str = '',
+                 source: str = '') -> str:
+    """Draw the end-effector path in 3D (start and end marked); return path."""
+    plt = _pyplot()
+    if len(xyz) == 0:
+        raise BagError('no end-effector data (no ee_pose and no joint_states)')
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection='3d')
+    sc = ax.scatter(xyz[:, 0], xyz[:, 1], xyz[:, 2], c=t, cmap='viridis', s=4)
+    ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], color='gray', lw=0.6, alpha=0.6)
+    ax.scatter(*xyz[0], color='tab:green', s=50, marker='o', label='start')
+    ax.scatter(*xyz[-1], color='tab:red', s=50, marker='X', label='end')
+    _equal_axes(ax, xyz)
+    ax.set_xlabel('x [m]')
+    ax.set_ylabel('y [m]')
+    ax.set_zlabel('z [m]')
+    fig.colorbar(sc, ax=ax, shrink=0.6, label='time [s]')
+    ax.legend(fontsize=8, loc='upper left')
+    ax.set_title(title or 'end-effector path' + (f' ({source})' if source else ''), fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _equal_axes(ax, pts: np.ndarray, pad: float = 0.02) -> None:
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center, half = (lo + hi) / 2.0, max(float(np.max(hi - lo)) / 2.0, 0.05) + pad
+    ax.set_xlim(center[0] - half, center[0] + half)
+    ax.set_ylim(center[1] - half, center[1] + half)
+    ax.set_zlim(max(0.0, center[2] - half) if lo[2] >= 0 else center[2] - half,
+                center[2] + half)
+
+
+def animation_frames(series: BagSeries, fps: float, max_frames: int) -> List[int]:
+    """Return the joint_states sample index shown in each GIF frame (real time at fps)."""
+    if len(series.t) == 0:
+        return []
+    duration = float(series.t[-1] - series.t[0])
+    count = int(min(max_frames, max(1, np.floor(duration * fps) + 1)))
+    times = np.linspace(series.t[0], series.t[-1], count)
+    idx = np.searchsorted(series.t, times, side='right') - 1
+    return [int(max(0, i)) for i in idx]
+
+
+def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
+                max_frames: int = 150, ee_link: str = 'ee_gripper_link') -> str:
+    """
+    Write a GIF of the arm (links as a stick figure, the end-effector trail) from joint_states.
+
+    :param tree: TfTree of the robot (link poses from joint positions)
+    :raises BagError: no joint_states, or pillow is not installed
+    """
+    plt = _pyplot()
+    from matplotlib.animation import FuncAnimation, PillowWriter
+    try:
+        import PIL  # noqa: F401  (PillowWriter needs it)
+    except ImportError:
+        raise BagError('cannot write a GIF: pillow is not installed') from None
+    frames = animation_frames(series, fps, max_frames)
+    if not frames:
+        raise BagError('no joint_states to animate')
+    edges = tree.edges()
+    ee = _find_link(tree, ee_link)
+    poses = [tree.link_poses(series.positions_at(i)) for i in frames]
+    pts = np.array([p[:3, 3] for pose in poses for p in pose.values()])
+    fig = plt.figure(figsize=(5.5, 5.0))
+    ax = fig.add_subplot(projection='3d')
+    _equal_axes(ax, np.vstack([pts, np.zeros((1, 3))]))
+    ax.set_xlabel('x [m]')
+    ax.set_ylabel('y [m]')
+    ax.set_zlabel('z [m]')
+    lines = [ax.plot([], [], [], color='tab:blue', lw=3, marker='o', ms=3)[0] for _ in edges]
+    trail, = ax.plot([], [], [], color='tab:orange', lw=1)
+    title = ax.set_title('')
+    trail_pts: List[np.ndarray] = []
+
+    def draw(k):
+        pose = poses[k]
+        for line, (a, b) in zip(lines, edges):
+            p, c = pose[a][:3, 3], pose[b][:3, 3]
+            line.set_data_3d([p[0], c[0]], [p[1], c[1]], [p[2], c[2]])
+        if k == 0:
+            trail_pts.clear()
+        trail_pts.append(pose[ee][:3, 3])
+        arr = np.array(trail_pts)
+        trail.set_data_3d(arr[:, 0], arr[:, 1], arr[:, 2])
+        title.set_text(f'{series.namespace or "arm"}  t = {series.t[frames[k]]:6.2f} s')
+        return lines + [trail, title]
+
+    anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
+    anim.save(path, writer=PillowWriter(fps=fps))
+    plt.close(fig)
+    return path
+
+
+def default_output_dir(bag_path: str) -> str:
+    """Return ``<bag dir>_plots`` next to the bag."""
+    base = os.path.abspath(bag_path)
+    if os.path.isfile(base):
+        base = os.path.splitext(base)[0]
+    return base.rstrip('/') + '_plots'

@@ -1,0 +1,251 @@
+"""
+The /tf tree of an arm from its joint states, through its URDF, as tf2_msgs/msg/TFMessage bytes.
+
+:class:`TfTree` parses a URDF (yourdfpy, no meshes) and returns, for joint positions by name,
+one transform per URDF joint (parent link -> child link: origin times the joint motion; mimic
+joints follow their master; joints without a value sit at 0). Frame names are the URDF link
+names with ``frame_prefix`` in front (``'px100/'`` for an unprefixed URDF; ``''`` when the URDF's
+links already carry the robot namespace, as the published robot_description does). The
+TFMessage is serialized from its message definition text (tf2_msgs need not be installed).
+Units: m, rad; stamps in integer ns.
+"""
+from dataclasses import dataclass
+import math
+import struct
+from typing import Dict, List, Mapping, Optional, Tuple
+
+import numpy as np
+from px100_control.errors import RobotModelError
+from px100_control.kinematics.rotations import matrix_to_quaternion
+
+TF_TYPE = 'tf2_msgs/msg/TFMessage'
+
+
+@dataclass(frozen=True)
+class _Joint:
+    name: str
+    kind: str
+    parent: str
+    child: str
+    origin: np.ndarray
+    axis: np.ndarray
+    mimic: Optional[Tuple[str, float, float]]
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    C = 1.0 - c
+    return np.array([[c + x * x * C, x * y * C - z * s, x * z * C + y * s],
+                     [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
+                     [z * x * C - y * s, z * y * C + x * s, c + z * z * C]])
+
+
+class TfTree:
+    """
+    The kinematic tree of a URDF: joint transforms and link poses from joint positions.
+
+    :param urdf_xml: URDF text
+    :param frame_prefix: prepended to every link name to form the tf frame names
+    :raises RobotModelError: the URDF cannot be parsed or is not a tree
+    """
+
+    def __init__(self, urdf_xml: str, frame_prefix: str = ''):
+        from px100_control.models.urdf_chain import load_urdf
+        urdf = load_urdf(urdf_xml)
+        self.frame_prefix = frame_prefix
+        joints = []
+        for j in urdf.robot.joints:
+            axis = np.array(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+            norm = float(np.linalg.norm(axis))
+            axis = axis / norm if norm > 0 else np.array([1.0, 0.0, 0.0])
+            origin = np.eye(4) if j.origin is None else np.array(j.origin, dtype=float)
+            mimic = None
+            if j.mimic is not None:
+                mimic = (j.mimic.joint, float(j.mimic.multiplier if j.mimic.multiplier
+                                              is not None else 1.0),
+                         float(j.mimic.offset or 0.0))
+            joints.append(_Joint(j.name, j.type, j.parent, j.child, origin, axis, mimic))
+        children = {j.child for j in joints}
+        roots = sorted({j.parent for j in joints} - children)
+        if joints and len(roots) != 1:
+            raise RobotModelError(f'URDF is not a tree with one root link (roots: {roots})')
+        self.root = roots[0] if roots else (urdf.robot.links[0].name if urdf.robot.links else '')
+        # order joints root-first so that link poses can be chained in one pass
+        by_parent: Dict[str, List[_Joint]] = {}
+        for j in joints:
+            by_parent.setdefault(j.parent, []).append(j)
+        ordered, stack = [], [self.root]
+        while stack:
+            link = stack.pop()
+            for j in by_parent.get(link, ()):
+                ordered.append(j)
+                stack.append(j.child)
+        self.joints: List[_Joint] = ordered
+        self.links: List[str] = [self.root] + [j.child for j in ordered]
+        self.movable = [j.name for j in ordered if j.kind != 'fixed']
+        self._entries = []
+        for j in ordered:
+            q0 = tuple(float(v) for v in matrix_to_quaternion(j.origin[:3, :3]))
+            t0 = tuple(float(v) for v in j.origin[:3, 3])
+            self._entries.append((j, self.frame(j.parent), self.frame(j.child), t0, q0,
+                                  j.origin[:3, :3].copy()))
+
+    def frame(self, link: str) -> str:
+        """Return the tf frame name of a link."""
+        return self.frame_prefix + link
+
+    def joint_values(self, positions: Mapping[str, float]) -> Dict[str, float]:
+        """
+        Return the value of every movable joint [rad or m] (mimics resolved, missing ones 0).
+
+        A joint is looked up by its URDF name, then by the name without a namespace prefix.
+        """
+        def lookup(name):
+            if name in positions:
+                return float(positions[name])
+            short = name.rsplit('/', 1)[-1]
+            return float(positions[short]) if short in positions else None
+
+        values = {}
+        for j in self.joints:
+            if j.kind == 'fixed':
+                continue
+            v = lookup(j.name)
+            if v is None and j.mimic is not None:
+                master = lookup(j.mimic[0])
+                if master is None:
+                    master = values.get(j.mimic[0], 0.0)
+                v = j.mimic[1] * master + j.mimic[2]
+            values[j.name] = 0.0 if v is None or not np.isfinite(v) else v
+        return values
+
+    def joint_transforms(self, positions: Mapping[str, float]
+                         ) -> List[Tuple[str, str, np.ndarray]]:
+        """Return [(parent frame, child frame, (4, 4) T_parent_child)] for every URDF joint."""
+        values = self.joint_values(positions)
+        out = []
+        for j in self.joints:
+            T = j.origin.copy()
+            if j.kind in ('revolute', 'continuous'):
+                M = np.eye(4)
+                M[:3, :3] = _rotation(j.axis, values[j.name])
+                T = T @ M
+            elif j.kind == 'prismatic':
+                M = np.eye(4)
+                M[:3, 3] = j.axis * values[j.name]
+                T = T @ M
+            out.append((self.frame(j.parent), self.frame(j.child), T))
+        return out
+
+    def tf_entries(self, positions: Mapping[str, float]) -> List[tuple]:
+        """
+        Return [(parent frame, child frame, (x, y, z), (qx, qy, qz, qw))] for every URDF joint.
+
+        The fast path of :meth:`joint_transforms` for /tf (plain floats, quaternions composed
+        directly).
+        """
+        values = self.joint_values(positions)
+        out = []
+        for j, parent, child, t0, q0, R0 in self._entries:
+            if j.kind in ('revolute', 'continuous'):
+                half = 0.5 * values[j.name]
+                s = math.sin(half)
+                q = _qmul(q0, (j.axis[0] * s, j.axis[1] * s, j.axis[2] * s, math.cos(half)))
+                out.append((parent, child, t0, q))
+            elif j.kind == 'prismatic':
+                d = R0 @ (j.axis * values[j.name])
+                out.append((parent, child, (t0[0] + d[0], t0[1] + d[1], t0[2] + d[2]), q0))
+            else:
+                out.append((parent, child, t0, q0))
+        return out
+
+    def link_poses(self, positions: Mapping[str, float]) -> Dict[str, np.ndarray]:
+        """Return {link name: (4, 4) pose in the root link frame}."""
+        poses = {self.root: np.eye(4)}
+        for (_, _, T), j in zip(self.joint_transforms(positions), self.joints):
+            poses[j.child] = poses[j.parent] @ T
+        return poses
+
+    def edges(self) -> List[Tuple[str, str]]:
+        """Return [(parent link, child link)] of every joint, root first."""
+        return [(j.parent, j.child) for j in self.joints]
+
+
+def prefix_urdf_links(urdf_xml: str, prefix: str) -> str:
+    """
+    Return the URDF with every link name (and joint parent/child link) prefixed.
+
+    Joint names are kept (they are what joint_states carries). Links already prefixed are
+    left alone.
+    """
+    import xml.etree.ElementTree as ET
+    try:
+        root = ET.fromstring(urdf_xml)
+    except ET.ParseError as exc:
+        raise RobotModelError(f'cannot parse URDF: {exc}') from None
+
+    def fix(name: str) -> str:
+        return name if name.startswith(prefix) else prefix + name
+
+    for link in root.iter('link'):
+        if link.get('name'):
+            link.set('name', fix(link.get('name')))
+    for joint in root.iter('joint'):
+        for tag in ('parent', 'child'):
+            el = joint.find(tag)
+            if el is not None and el.get('link'):
+                el.set('link', fix(el.get('link')))
+    return ET.tostring(root, encoding='unicode')
+
+
+def _qmul(a, b):
+    """Return the Hamilton product a * b of quaternions (x, y, z, w)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
+# -- TFMessage CDR encoding --------------------------------------------------------------------
+def _align(buf: bytearray, n: int) -> None:
+    # CDR alignment counts from the end of the 4-byte encapsulation header
+    pad = (-(len(buf) - 4)) % n
+    buf.extend(b'\x00' * pad)
+
+
+def _string(buf: bytearray, text: str) -> None:
+    data = text.encode('utf-8') + b'\x00'
+    _align(buf, 4)
+    buf.extend(struct.pack('<I', len(data)))
+    buf.extend(data)
+
+
+def encode_tf_message(transforms: List[tuple], stamp_ns: int) -> bytes:
+    """
+    Return the CDR bytes (little endian, with encapsulation header) of a tf2_msgs/TFMessage.
+
+    :param transforms: [(parent frame, child frame, (4, 4) T)] or the
+        [(parent, child, (x, y, z), (qx, qy, qz, qw))] of :meth:`TfTree.tf_entries`
+    :param stamp_ns: header stamp of every transform [ns since the epoch]
+    """
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    buf = bytearray(b'\x00\x01\x00\x00')
+    buf.extend(struct.pack('<I', len(transforms)))
+    for entry in transforms:
+        if len(entry) == 3:
+            parent, child, T = entry
+            T = np.asarray(T, dtype=float)
+            t = (T[0, 3], T[1, 3], T[2, 3])
+            q = matrix_to_quaternion(T[:3, :3])
+        else:
+            parent, child, t, q = entry
+        _align(buf, 4)
+        buf.extend(struct.pack('<iI', sec, nanosec))
+        _string(buf, parent)
+        _string(buf, child)
+        _align(buf, 8)
+        buf.extend(struct.pack('<7d', t[0], t[1], t[2], q[0], q[1], q[2], q[3]))
+    return bytes(buf)
