@@ -317,16 +317,18 @@ def _pin_rows(model, targets):
     idx = [names.index(j) for j in model.joint_names]
 
     def solve(T):
+        # pinocchio's documented CLIK example (damped pseudo-inverse on the SE(3) log error in
+        # the end-effector frame, Jlog6 correction), with unit step
         oMdes = pin.SE3(T[:3, :3], T[:3, 3])
         q = pin.neutral(red)
         for _ in range(200):
             pin.framesForwardKinematics(red, data, q)
-            dMi = oMdes.actInv(data.oMf[fid])
-            err = pin.log(dMi).vector
+            iMd = data.oMf[fid].actInv(oMdes)
+            err = pin.log(iMd).vector
             if np.linalg.norm(err) < 1e-10:
                 break
             J = pin.computeFrameJacobian(red, data, q, fid)
-            J = -pin.Jlog6(dMi.inverse()) @ J
+            J = -pin.Jlog6(iMd.inverse()) @ J
             v = -J.T @ np.linalg.solve(J @ J.T + 1e-12 * np.eye(6), err)
             q = pin.integrate(red, q, v)
             q = np.clip(q, red.lowerPositionLimit, red.upperPositionLimit)

@@ -19,6 +19,7 @@ one, falling back to DLS when it finds nothing valid and is not known to be comp
 Solutions are ordered by Euclidean distance to ``q_seed`` (seed 000 cost function; default
 ``model.home``). No robot specifics here.
 """
+import functools
 import math
 from typing import List, Sequence
 
@@ -34,6 +35,12 @@ MODES = ('full', 'pitch', 'position')
 METHODS = ('auto', 'analytic', 'dls', 'newton')
 _POLISH_LIMIT = 1e-6      # analytic candidates this close get a few DLS iterations of polish
 _RESTARTS = 24            # iterative starts (see _starts)
+
+
+@functools.lru_cache(maxsize=None)
+def _solver(name: str):
+    """Return the analytic module ``name`` (cached: importlib costs a lookup per call)."""
+    return get_solver(name)
 
 
 def _wrap(a: float) -> float:
@@ -396,7 +403,7 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
             raise InvalidInputError(f'{name} must be a positive finite number, not {tol!r}')
     task, details, T_eff = make_task(model, T, mode)
     if method in ('auto', 'analytic') and model.analytic_ik:
-        module = get_solver(model.analytic_ik)
+        module = _solver(model.analytic_ik)
         res = _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits,
                         tol_position, tol_orientation, max_iterations, module)
         if res.success or method == 'analytic' or getattr(module, 'complete', False):
@@ -447,7 +454,7 @@ def solve_ik_batch(model, targets, q_seed=None, check_limits: bool = True,
     if not finite.all():
         raise InvalidInputError(f'target {int(np.argmin(finite))} contains NaN or inf')
     seed = None if q_seed is None else model.check_vector(q_seed, 'q_seed')
-    module = get_solver(model.analytic_ik) if model.analytic_ik else None
+    module = _solver(model.analytic_ik) if model.analytic_ik else None
     if module is not None and hasattr(module, 'solve_batch'):
         return module.solve_batch(model, X, q_seed=seed, check_limits=check_limits,
                                   return_all=return_all)
