@@ -174,9 +174,13 @@ def plot_joints(series: BagSeries, path: str, title: str = '') -> str:
         ax.grid(True, alpha=0.3)
         if k == 0:
             ax.legend(fontsize=7, loc='best')
-    for k in range(len(series.names), rows * cols):
+    n = len(series.names)
+    for k in range(n, rows * cols):
         axes[k // cols][k % cols].set_visible(False)
-    for ax in axes[-1]:
+    for col in range(min(cols, n)):
+        last = max(k for k in range(n) if k % cols == col)
+        ax = axes[last // cols][col]
+        ax.xaxis.set_tick_params(labelbottom=True)
         ax.set_xlabel('time [s]')
     fig.suptitle(title or f'{series.namespace or "/"}: joint positions and setpoints')
     fig.tight_layout()

@@ -172,33 +172,6 @@ class TfTree:
         return [(j.parent, j.child) for j in self.joints]
 
 
-def prefix_urdf_links(urdf_xml: str, prefix: str) -> str:
-    """
-    Return the URDF with every link name (and joint parent/child link) prefixed.
-
-    Joint names are kept (they are what joint_states carries). Links already prefixed are
-    left alone.
-    """
-    import xml.etree.ElementTree as ET
-    try:
-        root = ET.fromstring(urdf_xml)
-    except ET.ParseError as exc:
-        raise RobotModelError(f'cannot parse URDF: {exc}') from None
-
-    def fix(name: str) -> str:
-        return name if name.startswith(prefix) else prefix + name
-
-    for link in root.iter('link'):
-        if link.get('name'):
-            link.set('name', fix(link.get('name')))
-    for joint in root.iter('joint'):
-        for tag in ('parent', 'child'):
-            el = joint.find(tag)
-            if el is not None and el.get('link'):
-                el.set('link', fix(el.get('link')))
-    return ET.tostring(root, encoding='unicode')
-
-
 def _qmul(a, b):
     """Return the Hamilton product a * b of quaternions (x, y, z, w)."""
     ax, ay, az, aw = a

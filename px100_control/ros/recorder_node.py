@@ -301,6 +301,8 @@ class RecorderNode(Node):
         try:
             urdf = deserialize_message(data, String).data
             tree = TfTree(urdf, '')
+            if not tree.movable:
+                raise ValueError('it has no movable joint')
             if self.robot_name and not tree.root.startswith(self.robot_name + '/'):
                 tree = TfTree(urdf, self.robot_name + '/')
         except (Px100Error, ValueError, TypeError) as exc:
@@ -343,8 +345,8 @@ class RecorderNode(Node):
         if urdf is None:
             return
         if self.robot_name:
-            from px100_control.bag.tf import prefix_urdf_links
-            urdf = prefix_urdf_links(urdf, self.robot_name + '/')
+            from px100_control.models.urdf_prefix import prefix_urdf
+            urdf = prefix_urdf(urdf, self.robot_name)
         # std_msgs/String CDR: encapsulation header, uint32 length (with NUL), bytes, NUL
         text = urdf.encode('utf-8') + b'\x00'
         payload = b'\x00\x01\x00\x00' + len(text).to_bytes(4, 'little') + text
