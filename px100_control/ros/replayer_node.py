@@ -189,9 +189,21 @@ class ReplayerNode(Node):
                 self.error = f'{exc.__class__.__name__}: {exc}'
                 self.get_logger().error(f'replay stopped: {self.error}')
         finally:
+            self._wait_for_acks()
             if self.progress:
                 self._show_progress(final=True)
             self.done.set()
+
+    def _wait_for_acks(self, timeout_s: float = 2.0) -> None:
+        """Give reliable subscribers the time to acknowledge the last messages before exit."""
+        from rclpy.duration import Duration
+        if not self.context.ok():
+            return
+        for pub in self.publishers_by_topic.values():
+            try:
+                pub.wait_for_all_acked(Duration(seconds=timeout_s))
+            except Exception:  # best effort publishers, shutdown in progress
+                pass
 
     def _play(self) -> None:
         schedule = self.schedule
@@ -275,8 +287,10 @@ def extract_remaps(argv: Sequence[str]):
             if arg.startswith('--remap='):
                 remaps.append(arg.split('=', 1)[1])
             i += 1
-            while i < len(argv) and ':=' in argv[i] and not argv[i].startswith('-'):
-                remaps.append(argv[i])
+            first = i
+            while i < len(argv) and not argv[i].startswith('-') and (
+                    ':=' in argv[i] or (i == first and not arg.startswith('--remap='))):
+                remaps.append(argv[i])  # a value without ':=' is refused with a clear error
                 i += 1
             continue
         out.append(arg)

@@ -8,6 +8,7 @@ recovered by reindex from their complete chunks.
 import os
 import shutil
 
+from bag_support import mcap_path, write_run_bag
 from mcap.reader import make_reader
 from px100_control.bag import inspect_cli, reindex
 from px100_control.bag.reader import BagReader
@@ -15,12 +16,10 @@ from px100_control.errors import BagError
 import pytest
 from rosbags.rosbag2 import Reader
 
-from bag_support import mcap_path, write_run_bag
-
 
 @pytest.fixture(scope='module')
 def good_bag(tmp_path_factory):
-    """A complete bag with many small chunks (so that truncation keeps some of them)."""
+    """Return a complete bag with many small chunks (truncation keeps some of them)."""
     bag_dir = str(tmp_path_factory.mktemp('good') / 'run')
     written = write_run_bag(bag_dir, seconds=2.0, chunk_size=2048)
     return bag_dir, sum(len(v) for v in written.values())

@@ -1,18 +1,17 @@
 """inspect: the printed summary, the PNG plots and the GIF of a recorded run."""
 import os
 
+from bag_support import ARM, arm_trajectory, write_run_bag
 import numpy as np
 from PIL import Image
 from px100_control.bag import inspect_cli, plots
 from px100_control.bag.reader import BagReader
 import pytest
 
-from bag_support import ARM, arm_trajectory, write_run_bag
-
 
 @pytest.fixture(scope='module')
 def run_bag(tmp_path_factory):
-    """A synthetic 2 s run with setpoints, ee_pose and robot_description."""
+    """Return a synthetic 2 s run with setpoints, ee_pose and robot_description."""
     bag_dir = str(tmp_path_factory.mktemp('inspect') / 'run')
     write_run_bag(bag_dir, seconds=2.0)
     return bag_dir

@@ -3,12 +3,12 @@ import glob
 import json
 import os
 
+from bag_support import TYPESTORE
 from mcap_ros2._dynamic import generate_dynamic
 from px100_control.bag import msgdefs
 import pytest
 from rosbags.typesys import get_types_from_msg
 
-from bag_support import TYPESTORE
 
 TYPES = ['sensor_msgs/msg/JointState', 'geometry_msgs/msg/PoseStamped', 'std_msgs/msg/String',
          'geometry_msgs/msg/PoseArray', 'trajectory_msgs/msg/JointTrajectory',

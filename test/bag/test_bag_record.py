@@ -1,13 +1,18 @@
 """
-`record` through real nodes: what was published is in the bag, byte for byte, readable by
-rosbags and mcap; SIGINT and SIGTERM finalise the bag; after SIGKILL the file reads up to its
-last chunk and bag_reindex recovers it; the in-process Recorder API and its stop conditions.
+`record` through real nodes.
+
+What was published is in the bag, byte for byte, readable by rosbags and mcap; SIGINT and
+SIGTERM finalise the bag; after SIGKILL the file reads up to its last chunk and bag_reindex
+recovers it; the in-process Recorder API and its stop conditions.
 """
 import os
 import signal
 import subprocess
 import time
 
+from bag_ros_support import FakeRobot, wait_until
+from bag_support import decode, mcap_path
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from mcap.records import Message
 from mcap.stream_reader import StreamReader
 from px100_control.bag.reader import BagReader
@@ -17,10 +22,6 @@ from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.tools.processes import executable_path
 import pytest
 from rosbags.rosbag2 import Reader
-
-from bag_ros_support import FakeRobot, wait_until
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from bag_support import decode, mcap_path
 
 pytestmark = pytest.mark.ros
 START_TIMEOUT = 90.0  # the 2-core test machine can be slow to import numpy/rclpy
@@ -52,9 +53,7 @@ def _publish(fake, first, count, period=0.005):
 
 
 def test_record_all_topics_then_sigint(rclpy_context, spin_node, node_process, tmp_path):
-    """
-    -a records every /px100 topic and /diagnostics (not others), exact content, QoS, and /tf.
-    """
+    """-a records every /px100 topic and /diagnostics (not others), content, QoS, /tf."""
     fake = spin_node(FakeRobot(context=rclpy_context))
     urdf = prefix_urdf(load_robot('px100').urdf_xml, 'px100')
     fake.desc.publish(fake.String(data=urdf))
@@ -106,9 +105,9 @@ def test_sigterm_finalises_selected_topics(rclpy_context, spin_node, node_proces
     assert [m.position[0] for m in msgs['/px100/joint_states']] == list(range(120))
 
 
-def test_sigkill_leaves_a_readable_bag_that_reindex_recovers(rclpy_context, spin_node,
-                                                              node_process, tmp_path):
-    """After SIGKILL the file reads up to its last chunk (<= flush period lost); reindex fixes it."""
+def test_sigkill_leaves_a_readable_bag_that_reindex_recovers(
+        rclpy_context, spin_node, node_process, tmp_path):
+    """After SIGKILL the file reads up to its last chunk (a flush period lost); reindex it."""
     fake = spin_node(FakeRobot(context=rclpy_context))
     bag_dir = str(tmp_path / 'kill')
     proc = _start_recording(node_process, fake, bag_dir, 'joint_states', '--flush-period',

@@ -1,7 +1,8 @@
-"""BagWriter -> rosbags, mcap (+ mcap_ros2) and BagReader: same counts, same bytes, same content."""
+"""BagWriter -> rosbags, mcap (+ mcap_ros2) and BagReader: same counts, bytes and content."""
 import os
 import shutil
 
+from bag_support import decode, joint_state, mcap_path, string, T0_NS, write_run_bag
 from mcap.reader import make_reader
 from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
@@ -15,12 +16,10 @@ import pytest
 from rosbags.rosbag2 import Reader
 import yaml
 
-from bag_support import decode, joint_state, mcap_path, string, T0_NS, write_run_bag
-
 
 @pytest.fixture(scope='module')
 def run_bag(tmp_path_factory):
-    """A synthetic 2 s run and what was written into it."""
+    """Return a synthetic 2 s run and what was written into it."""
     bag_dir = str(tmp_path_factory.mktemp('bags') / 'run')
     written = write_run_bag(bag_dir, seconds=2.0, chunk_size=4096)
     return bag_dir, written
@@ -53,7 +52,7 @@ def test_metadata_yaml_is_rosbag2_jazzy(run_bag):
 
 
 def test_rosbags_reads_every_message_strictly(run_bag):
-    """rosbags' rosbag2 Reader yields the written bytes, and its strict CDR decoder accepts them."""
+    """Read with the rosbag2 Reader of rosbags: same bytes, and its strict CDR decoder agrees."""
     bag_dir, written = run_bag
     got = {}
     with Reader(bag_dir) as reader:
@@ -66,7 +65,7 @@ def test_rosbags_reads_every_message_strictly(run_bag):
 
 
 def test_mcap_reader_decodes_with_embedded_schemas(run_bag):
-    """The mcap library with mcap_ros2's decoder (what Foxglove-like tools do) reads it."""
+    """Read it with the mcap library and mcap_ros2's decoder (as Foxglove-like tools do)."""
     bag_dir, written = run_bag
     with open(mcap_path(bag_dir), 'rb') as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
@@ -101,8 +100,8 @@ def test_own_reader_summary_and_messages(run_bag):
         js = [m for _, m in reader.iter_decoded(['/px100/joint_states'])]
     assert summary.message_count == sum(len(v) for v in written.values())
     assert summary.topics['/px100/joint_states'].rate_hz == pytest.approx(100.0, rel=1e-6)
-    assert summary.topics['/px100/commands/joint_setpoints'].rate_hz == pytest.approx(20.0,
-                                                                                     rel=1e-3)
+    sp_rate = summary.topics['/px100/commands/joint_setpoints'].rate_hz
+    assert sp_rate == pytest.approx(20.0, rel=1e-3)
     assert summary.has_metadata_yaml
     assert [m.log_time_ns for m in raws] == sorted(m.log_time_ns for m in raws)
     assert sorted((m.topic, m.log_time_ns, m.data) for m in raws) == sorted(

@@ -1,4 +1,5 @@
 """/tf from joint states through the URDF: agrees with the robot model, strict CDR bytes."""
+from bag_support import decode, TYPESTORE
 from mcap_ros2._dynamic import serialize_dynamic
 import numpy as np
 from px100_control.bag.msgdefs import message_definition
@@ -7,12 +8,10 @@ from px100_control.models.registry import load_robot
 from px100_control.models.urdf_prefix import prefix_urdf
 import pytest
 
-from bag_support import decode, TYPESTORE
-
 
 @pytest.fixture(scope='module')
 def px100():
-    """The px100 model and its tf tree from the prefixed URDF (as sim_driver publishes it)."""
+    """Return the px100 model and its tree from the prefixed URDF (as sim_driver has it)."""
     model = load_robot('px100')
     return model, TfTree(prefix_urdf(model.urdf_xml, 'px100'))
 
