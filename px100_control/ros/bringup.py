@@ -1,11 +1,55 @@
-"""Placeholder entry point: replaced when its node is built (see the issue tracker)."""
+"""
+bringup: sim_driver, ik_service and trajectory_server in one process.
+
+For machines without ``ros2 launch``: ``ros2 run px100_control bringup --ros-args -p
+robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all three nodes
+(a params file addresses each by its node name); they spin in one MultiThreadedExecutor, each
+node's callbacks serialised in its own default callback group.
+"""
 import sys
+from typing import List
+
+from px100_control.ros.common import parse_cli
 
 
-def main(args=None):
-    """Say that this executable is not built yet and exit non-zero."""
-    print('px100_control: bringup is not built yet', file=sys.stderr)
-    return 1
+def create_nodes(**node_kwargs) -> List:
+    """Return [SimDriverNode, IkServiceNode, TrajectoryServerNode] built with node_kwargs."""
+    from px100_control.ros.ik_service_node import IkServiceNode
+    from px100_control.ros.sim_driver_node import SimDriverNode
+    from px100_control.ros.trajectory_server_node import TrajectoryServerNode
+    nodes = []
+    try:
+        for cls in (SimDriverNode, IkServiceNode, TrajectoryServerNode):
+            nodes.append(cls(**node_kwargs))
+    except BaseException:
+        for node in nodes:
+            node.destroy_node()
+        raise
+    return nodes
+
+
+def main(args=None) -> int:
+    """Run the three nodes until SIGINT (``ros2 run px100_control bringup``)."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+
+    _, argv = parse_cli('Run sim_driver, ik_service and trajectory_server of px100_control in '
+                        'one process.', args)
+    rclpy.init(args=argv)
+    nodes = []
+    try:
+        nodes = create_nodes()
+        executor = MultiThreadedExecutor()
+        for node in nodes:
+            executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
 
 
 if __name__ == '__main__':

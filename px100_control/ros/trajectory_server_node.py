@@ -13,7 +13,8 @@ Goal semantics (what a client relies on):
   measured position) with the ``profile`` parameter. Its duration (Interbotix ``moving_time``)
   is the point's ``time_from_start`` when > 0, else the ``moving_time`` parameter;
   ``trapezoidal`` ramps take the ``accel_time`` parameter (clipped to duration/2);
-  ``linear_max_step`` lengthens the move if a setpoint step would exceed ``max_joint_step``.
+  ``linear_max_step`` lengthens the move if a setpoint step would exceed ``max_joint_step``
+  and advances one step per setpoint sent (a late setpoint never makes a bigger step).
   ``profile``, ``moving_time`` and ``accel_time`` are read when a goal arrives, so a client
   selects them per move with a SetParameters call answered before it publishes the goal
   (sticky, like Interbotix ``set_trajectory_time``).
@@ -81,7 +82,7 @@ PARAMETERS = {
     'moving_time': (2.0, 'duration of a one-point goal whose time_from_start is 0 [s]'),
     'accel_time': (0.3, 'trapezoidal ramp time [s], clipped to moving_time/2'),
     'max_joint_step': (0.01, 'linear_max_step: largest joint step between setpoints [rad]'),
-    'state_timeout': (0.5, 'abort a goal when joint_states stop for this long [s]'),
+    'state_timeout': (1.0, 'abort a goal when joint_states stop for this long [s]'),
     'path_tolerance': (0.2, 'abort when a joint is this far from its recent setpoints [rad]'),
     'path_window': (0.2, 'tracking compares with the setpoints of the last path_window [s]'),
     'goal_tolerance': (0.002, 'success when every joint is this close to the end [rad]'),
@@ -101,6 +102,8 @@ class _Goal:
     traj: tj.Trajectory
     t_start: int  # node-clock ns
     phase: str = 'executing'  # executing | canceling
+    stepped: bool = False  # linear_max_step: advance one period per setpoint sent
+    ticks: int = 0
     last_q: Optional[np.ndarray] = None
     last_qd: Optional[np.ndarray] = None
     info: dict = field(default_factory=dict)
@@ -132,6 +135,7 @@ class TrajectoryServerNode(Node):
         self._js_map_names = None
         self._js_map = None
         self._active: Optional[_Goal] = None
+        self._stale_checks = 0
         self._history: 'OrderedDict[tuple, GoalStatus]' = OrderedDict()
 
         self._pub_setpoint = self.create_publisher(
@@ -223,7 +227,8 @@ class TrajectoryServerNode(Node):
                              f'preempted by goal {stamp_id(msg.header.stamp)}')
             status = self._new_status(msg.header.stamp, GoalStatus.STATUS_ACCEPTED)
             self._publish_status()
-            goal = _Goal(key=key, status=status, traj=traj, t_start=now, info=info)
+            goal = _Goal(key=key, status=status, traj=traj, t_start=now, info=info,
+                         stepped=str(self._param('profile')) == 'linear_max_step')
             status.status = GoalStatus.STATUS_EXECUTING
             self._publish_status()
             self._active = goal
@@ -245,11 +250,10 @@ class TrajectoryServerNode(Node):
                                     m.lower, m.upper, m.velocity_limits)
         if reason:
             raise InvalidInputError(reason)
-        age = self._state_age()
-        if age > float(self._param('state_timeout')) or np.any(np.isnan(self._meas)):
-            raise InvalidInputError(
-                'no joint_states from the driver' if math.isinf(age) else
-                f'driver not publishing joint_states (last one {age:.2f} s ago)')
+        if np.any(np.isnan(self._meas)):
+            missing = [n for n, v in zip(self._names, self._meas) if math.isnan(v)]
+            raise InvalidInputError(f'no joint_states from the driver yet (for {missing}): '
+                                    'the start of the move is unknown')
         if self._active is not None:
             q0, v0 = self._current_setpoint(self._active)
         else:
@@ -300,8 +304,10 @@ class TrajectoryServerNode(Node):
         return traj, info
 
     def _current_setpoint(self, goal: _Goal):
-        t = (self.get_clock().now().nanoseconds - goal.t_start) * 1e-9
-        q, qd, _ = goal.traj.sample(t)
+        """Return (q, qd) of the last setpoint sent for a goal (where the driver is headed)."""
+        if goal.last_q is not None:
+            return goal.last_q.copy(), goal.last_qd.copy()
+        q, qd, _ = goal.traj.sample(0.0)
         return q, qd
 
     def _on_cancel(self, request, response):
@@ -349,10 +355,15 @@ class TrajectoryServerNode(Node):
             g = self._active
             if g is None:
                 return
-            t = (self.get_clock().now().nanoseconds - g.t_start) * 1e-9
+            now = self.get_clock().now()
+            t = (now.nanoseconds - g.t_start) * 1e-9
+            if g.stepped and g.phase == 'executing':
+                # seed 001: one step per setpoint, however late the tick (never a bigger step)
+                t = g.ticks / self._rate
+                g.ticks += 1
             q, qd, _ = g.traj.sample(t)
             g.last_q, g.last_qd = q, qd
-            self._send(q, qd)
+            self._send(q, qd, now)
             if g.phase == 'canceling':
                 if t >= g.traj.duration:
                     self._active = None
@@ -402,20 +413,32 @@ class TrajectoryServerNode(Node):
         return np.maximum(np.maximum(self._meas - hi, lo - self._meas), 0.0)
 
     def _on_watchdog(self) -> None:
+        """
+        Abort the running goal when joint_states stopped for longer than state_timeout.
+
+        Runs on the steady clock (also when a sim clock stops). A stale state must be seen on
+        two consecutive checks, so that joint_states still queued behind this timer after a
+        scheduling stall of this process are read before the driver is declared dead.
+        """
         with self._lock:
             g = self._active
-            if g is None:
-                return
             age = self._state_age()
-            if age > float(self._param('state_timeout')):
-                self._active = None
-                self._finish(g, GoalStatus.STATUS_ABORTED,
-                             f'driver not publishing joint_states (none for {age:.2f} s, '
-                             f'state_timeout {self._param("state_timeout")} s)')
+            if g is None or age <= float(self._param('state_timeout')):
+                self._stale_checks = 0
+                return
+            self._stale_checks += 1
+            if self._stale_checks < 2:
+                return
+            self._stale_checks = 0
+            self._active = None
+            self._finish(g, GoalStatus.STATUS_ABORTED,
+                         f'driver not publishing joint_states (none for {age:.2f} s, '
+                         f'state_timeout {self._param("state_timeout")} s)')
 
-    def _send(self, q, qd) -> None:
+    def _send(self, q, qd, now=None) -> None:
+        """Publish a setpoint (and the same as feedback), stamped with its sample time."""
         msg = self._setpoint
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = (now or self.get_clock().now()).to_msg()
         msg.position = q.tolist()
         msg.velocity = qd.tolist()
         self._pub_setpoint.publish(msg)

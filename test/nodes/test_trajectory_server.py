@@ -1,0 +1,307 @@
+"""
+The trajectory_server over DDS: the installed node as a process, a fake driver and a client here.
+
+The fake driver (a real rclpy node) echoes every setpoint as the measured state, and can block a
+joint, add a measurement offset or go silent, so stalls are reproducible. Timing bounds carry
+margins for a loaded 2-core machine but still fail on a wrong behaviour (a goal that never ends,
+an abort that never comes, a jump in the setpoints).
+"""
+import time
+
+from action_msgs.srv import CancelGoal
+from nodes_fake_driver import ARM, FakeDriver
+from nodes_helpers import (LATCHED, start_node, STARTUP_TIMEOUT, TrajectoryClient, unique_stamp,
+                           wait_for)
+import numpy as np
+from px100_control.ros.conversions import stamp_uuid
+import pytest
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+
+pytestmark = pytest.mark.ros
+
+# generous tracking bounds: the fake driver shares this (loaded) process with the client
+PARAMS = ('state_timeout:=1.0', 'path_tolerance:=0.5', 'path_window:=0.5',
+          'goal_tolerance:=0.002', 'goal_time_tolerance:=1.0', 'stop_deceleration:=8.0')
+
+
+class Env:
+    """The running graph: server process, fake driver, client, parameter client."""
+
+    def __init__(self, server, driver, client, params):
+        self.server, self.driver, self.client, self.params = server, driver, client, params
+
+    def set_params(self, **values):
+        """Set trajectory_server parameters and wait for the answer."""
+        fut = self.params.set_parameters([Parameter(k, value=v) for k, v in values.items()])
+        assert wait_for(fut.done, 10.0), 'set_parameters timed out'
+        assert all(r.successful for r in fut.result().results), fut.result()
+
+    def position(self):
+        """Return the arm joint values that the fake driver reports, shape (4,)."""
+        with self.driver.lock:
+            return np.array(self.driver.q)
+
+    def setpoints_since(self, k):
+        """Return the setpoints received after the first k: (stamps [s], q (m, 4), qd)."""
+        with self.driver.lock:
+            sp = list(self.driver.setpoints[k:])
+        t = np.array([s[0] for s in sp]) * 1e-9
+        q = np.array([[dict(zip(s[1], s[2]))[j] for j in ARM] for s in sp])
+        qd = np.array([[dict(zip(s[1], s[3]))[j] for j in ARM] for s in sp])
+        return t, q, qd
+
+    def move(self, target, moving_time, names=ARM, timeout=None):
+        """Send a one-point goal and wait for its end; return (stamp, final status)."""
+        stamp = self.client.send(names, [(moving_time, target)])
+        status = self.client.wait_terminal(stamp, timeout or moving_time + 10.0)
+        return stamp, status
+
+
+@pytest.fixture(scope='module')
+def env(ros_ctx, spinner, processes):
+    """Start the graph once for the module."""
+    driver = spinner.add(FakeDriver(context=ros_ctx))
+    client = spinner.add(TrajectoryClient(context=ros_ctx))
+    server = start_node(processes, 'trajectory_server', *PARAMS)
+    params = AsyncParameterClient(client, 'trajectory_server')
+    assert params.wait_for_services(STARTUP_TIMEOUT), server.output()
+    assert wait_for(lambda: client.pub.get_subscription_count() > 0, STARTUP_TIMEOUT)
+    assert wait_for(lambda: client.measured() is not None, 30.0)
+    return Env(server, driver, client, params)
+
+
+@pytest.fixture
+def fresh(env):
+    """Reset faults and parameters before a test; check the server still runs after it."""
+    env.driver.reset()
+    env.set_params(profile='trapezoidal', accel_time=0.3, state_timeout=1.0, path_tolerance=0.5)
+    yield env
+    env.driver.reset()
+    assert env.server.alive(), env.server.output()
+
+
+def _max_step_ok(t, q, qd, slack=1.5, floor=1e-3):
+    """
+    Return the worst ratio of a setpoint step to what its neighbours' speed allows.
+
+    t are the setpoint stamps (their sample times on the server's clock), so a late tick may
+    take a larger step, but only as large as the commanded velocity times the time it was late.
+    """
+    worst, where = 0.0, 0
+    for k in range(1, len(q)):
+        allowed = slack * np.max(np.abs(qd[k - 1:k + 1]), axis=0) * max(t[k] - t[k - 1], 0.005)
+        ratio = float(np.max(np.abs(q[k] - q[k - 1]) / (allowed + floor)))
+        if ratio > worst:
+            worst, where = ratio, k
+    if worst >= 1.0:
+        lo, hi = max(0, where - 3), min(len(q), where + 3)
+        print('worst step at', where, 'dt', np.diff(t[lo:hi]), '\nq', q[lo:hi], '\nqd', qd[lo:hi])
+    return worst
+
+
+def test_one_point_move_succeeds_on_time_and_smoothly(fresh):
+    """A one-point goal moves there in moving_time: statuses in order, no jump, on target."""
+    env = fresh
+    start = env.position()
+    target = [0.4, -0.9, 0.9, 0.4]
+    k0 = env.driver.count()
+    t0 = time.monotonic()
+    stamp, status = env.move(target, 1.0)
+    elapsed = time.monotonic() - t0
+    assert status == 'SUCCEEDED', env.client.diagnostics_for(stamp)
+    seen = env.client.statuses(stamp)
+    assert seen.index('EXECUTING') < seen.index('SUCCEEDED')
+    assert 'ACCEPTED' not in seen[seen.index('EXECUTING'):]
+    assert 0.9 <= elapsed <= 1.0 + 4.0, elapsed
+    np.testing.assert_allclose(env.position(), target, atol=0.002)
+    t, q, qd = env.setpoints_since(k0)
+    assert len(q) >= 20
+    np.testing.assert_allclose(q[0], start, atol=0.05)      # starts where the arm was
+    np.testing.assert_allclose(q[-1], target, atol=1e-9)     # ends exactly on target
+    assert _max_step_ok(t, q, qd) < 1.0
+    assert np.all(np.abs(qd) <= np.array([np.pi] * 4) + 1e-9)
+    diag = env.client.last_diagnostic(stamp)
+    assert diag is not None and diag.level == b'\x00' and 'reached' in diag.message
+
+
+def test_status_uuid_and_latched_history(fresh, ros_ctx, spinner):
+    """The GoalStatus of a goal carries stamp_uuid(stamp); a late subscriber gets the array."""
+    env = fresh
+    stamp, status = env.move([0.2, -0.8, 0.8, 0.3], 0.5)
+    assert status == 'SUCCEEDED'
+    late = spinner.add(TrajectoryClient(context=ros_ctx))
+    assert late.wait_status(stamp, 'SUCCEEDED', 20.0)
+    with late.lock:
+        assert (stamp.sec, stamp.nanosec) in late.history
+    from action_msgs.msg import GoalStatusArray
+    got = []
+    sub = late.create_subscription(GoalStatusArray, '/px100/trajectory/status', got.append,
+                                   LATCHED)
+    assert wait_for(lambda: got, 20.0)
+    entry = [s for s in got[-1].status_list if s.goal_info.stamp == stamp]
+    assert entry and bytes(entry[0].goal_info.goal_id.uuid) == stamp_uuid(stamp)
+    assert len(got[-1].status_list) <= 50
+    late.destroy_subscription(sub)
+
+
+@pytest.mark.parametrize('names, points, words', [
+    (['waist', 'bogus'], [(1.0, [0.0, 0.0])], 'unknown joint'),
+    (['waist'], [(1.0, [float('nan')])], 'NaN'),
+    (['shoulder'], [(1.0, [2.5])], 'outside its limits'),
+    (['waist'], [(1.0, [0.1]), (1.0, [0.2])], 'strictly increasing'),
+    (['waist'], [(1.0, [0.1]), (0.5, [0.2])], 'strictly increasing'),
+    (['waist'], [(0.05, [2.0])], 'velocity limit'),
+    (['waist'], [(1.0, [0.1], [9.0])], 'above its limit'),
+    (['waist', 'elbow'], [(1.0, [0.1])], 'positions for 2 joints'),
+    (['waist'], [], 'no points'),
+])
+def test_invalid_goal_aborted_with_reason_and_nothing_sent(fresh, names, points, words):
+    """Every invalid-goal class: ABORTED at once, reason on /diagnostics, no setpoint sent."""
+    env = fresh
+    k0 = env.driver.count()
+    stamp = env.client.send(names, points)
+    assert env.client.wait_terminal(stamp, 10.0) == 'ABORTED'
+    assert env.client.statuses(stamp) == ['ABORTED']
+    diag = env.client.last_diagnostic(stamp)
+    assert diag is not None and diag.level == b'\x02' and words in diag.message, diag.message
+    assert diag.name == 'px100/trajectory_server'
+    time.sleep(0.3)
+    assert env.driver.count() == k0, 'an invalid goal reached the driver'
+    assert words in env.server.output()  # and it is logged
+
+
+def test_cancel_midway_stops_smoothly_where_it_is(fresh):
+    """Cancel mid-move: CANCELING then CANCELED; decelerates (no jump) and rests short of goal."""
+    env = fresh
+    env.move([0.0, -0.9, 0.9, 0.3], 0.6)
+    target = [1.2, -0.9, 0.9, 0.3]
+    k0 = env.driver.count()
+    stamp = env.client.send(ARM, [(2.0, target)])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(0.9)
+    resp = env.client.cancel(stamp=stamp)
+    assert resp is not None and resp.return_code == CancelGoal.Response.ERROR_NONE
+    assert len(resp.goals_canceling) == 1 and resp.goals_canceling[0].stamp == stamp
+    assert env.client.wait_terminal(stamp, 10.0) == 'CANCELED'
+    assert env.client.statuses(stamp)[-2:] == ['CANCELING', 'CANCELED']
+    time.sleep(0.2)
+    rest = env.position()
+    assert 0.05 < rest[0] < 1.2 - 0.05, rest   # stopped on the way, not at the goal
+    t, q, qd = env.setpoints_since(k0)
+    assert _max_step_ok(t, q, qd) < 1.0
+    np.testing.assert_allclose(qd[-1], 0.0, atol=1e-9)
+    np.testing.assert_allclose(q[-1], rest, atol=1e-6)
+    # the standard return codes
+    again = env.client.cancel(stamp=stamp)
+    assert again.return_code == CancelGoal.Response.ERROR_GOAL_TERMINATED
+    unknown = env.client.cancel(uuid=stamp_uuid(unique_stamp()))
+    assert unknown.return_code == CancelGoal.Response.ERROR_UNKNOWN_GOAL_ID
+    idle = env.client.cancel()
+    assert idle.return_code == CancelGoal.Response.ERROR_REJECTED
+
+
+def test_cancel_all_and_by_uuid(fresh):
+    """A zero goal_info cancels the running goal; so does its UUID."""
+    env = fresh
+    for how in ('all', 'uuid'):
+        stamp = env.client.send(['waist'], [(2.0, [0.8 if how == 'all' else -0.5])])
+        assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+        time.sleep(0.3)
+        resp = env.client.cancel() if how == 'all' else env.client.cancel(
+            uuid=stamp_uuid(stamp))
+        assert resp.return_code == CancelGoal.Response.ERROR_NONE, how
+        assert env.client.wait_terminal(stamp, 10.0) == 'CANCELED'
+
+
+def test_new_goal_preempts_the_running_one(fresh):
+    """A second goal cancels the first (CANCELED) and continues from its setpoint smoothly."""
+    env = fresh
+    env.move([0.0, -0.9, 0.9, 0.3], 0.6)
+    k0 = env.driver.count()
+    first = env.client.send(ARM, [(2.0, [1.0, -0.9, 0.9, 0.3])])
+    assert env.client.wait_status(first, 'EXECUTING', 10.0)
+    time.sleep(0.7)
+    second = env.client.send(ARM, [(1.0, [0.2, -0.7, 0.7, 0.1])])
+    assert env.client.wait_terminal(first, 10.0) == 'CANCELED', env.client.last_diagnostic(first)
+    assert env.client.wait_terminal(second, 10.0) == 'SUCCEEDED'
+    diag = env.client.last_diagnostic(first)
+    assert diag is not None and 'preempted' in diag.message
+    t, q, qd = env.setpoints_since(k0)
+    assert _max_step_ok(t, q, qd) < 1.0
+    np.testing.assert_allclose(env.position(), [0.2, -0.7, 0.7, 0.1], atol=0.002)
+
+
+def test_duplicate_id_of_the_running_goal_is_ignored(fresh):
+    """Re-sending the running goal's id does not restart or abort it."""
+    env = fresh
+    stamp = env.client.send(['waist'], [(1.0, [0.3])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    env.client.send(['waist'], [(1.0, [-0.3])], stamp=stamp)
+    assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED'
+    assert env.position()[0] == pytest.approx(0.3, abs=0.002)
+
+
+def test_waypoint_goal_passes_through_its_points(fresh):
+    """Several points: the setpoints pass through each waypoint, velocity continuous."""
+    env = fresh
+    env.move([0.0, -0.9, 0.9, 0.3], 0.6)
+    pts = [(0.6, [0.3, -0.7, 0.8, 0.3]), (1.2, [0.5, -0.5, 0.5, 0.2]),
+           (1.8, [0.2, -0.6, 0.6, 0.1])]
+    k0 = env.driver.count()
+    stamp = env.client.send(ARM, pts)
+    assert env.client.wait_terminal(stamp, 15.0) == 'SUCCEEDED'
+    t, q, qd = env.setpoints_since(k0)
+    for _, p in pts:
+        assert np.min(np.max(np.abs(q - np.array(p)), axis=1)) < 0.02
+    assert _max_step_ok(t, q, qd) < 1.0
+    np.testing.assert_allclose(env.position(), pts[-1][1], atol=0.002)
+
+
+def test_linear_max_step_profile_limits_every_step(fresh):
+    """Profile linear_max_step (set per goal by parameter): no setpoint step above the max."""
+    env = fresh
+    env.move([0.0, -0.9, 0.9, 0.3], 0.6)
+    env.set_params(profile='linear_max_step', max_joint_step=0.004)
+    k0 = env.driver.count()
+    stamp, status = env.move([0.8, -0.9, 0.9, 0.3], 0.5)   # 200 steps: longer than 0.5 s
+    assert status == 'SUCCEEDED'
+    t, q, _ = env.setpoints_since(k0)
+    assert np.max(np.abs(np.diff(q, axis=0))) <= 0.004 + 1e-9
+    assert len(q) >= 200
+
+
+def test_driver_silent_aborts_within_bound(fresh):
+    """No joint_states during a goal: ABORTED naming the driver, within state_timeout + 1 s."""
+    env = fresh
+    env.set_params(state_timeout=0.5)
+    stamp = env.client.send(['waist'], [(3.0, [0.9])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(0.3)
+    env.driver.silent = True
+    t0 = time.monotonic()
+    assert env.client.wait_terminal(stamp, 5.0) == 'ABORTED'
+    assert time.monotonic() - t0 < 0.5 + 1.0
+    assert 'joint_states' in env.client.last_diagnostic(stamp).message
+
+
+def test_blocked_joint_aborts_with_its_name(fresh):
+    """A joint that does not follow: ABORTED with the joint and its tracking error."""
+    env = fresh
+    env.driver.frozen.add('elbow')
+    stamp = env.client.send(ARM, [(1.5, [0.0, -0.9, -0.6, 0.3])])
+    assert env.client.wait_terminal(stamp, 10.0) == 'ABORTED'
+    msg = env.client.last_diagnostic(stamp).message
+    assert "'elbow'" in msg and 'tracking error' in msg
+
+
+def test_goal_that_never_settles_aborts_after_the_settle_time(fresh):
+    """Measured 10 mrad off (within path tolerance): ABORTED 'did not settle' after 1 s."""
+    env = fresh
+    env.driver.offset['wrist_angle'] = 0.01
+    stamp = env.client.send(['waist'], [(0.5, [0.1])])
+    t0 = time.monotonic()
+    assert env.client.wait_terminal(stamp, 10.0) == 'ABORTED'
+    assert time.monotonic() - t0 >= 1.2
+    msg = env.client.last_diagnostic(stamp).message
+    assert "'wrist_angle' did not settle" in msg
