@@ -416,6 +416,7 @@ def run(quick: bool = False, robot: str = 'px100', targets: int = 0) -> dict:
                                  'within joint limits',
             'machine': f'{platform.processor() or platform.machine()}, {os.cpu_count()} cores, '
                        f'Python {platform.python_version()}',
+            'load_average_1min_at_end': os.getloadavg()[0],
             'rows': rows, 'batch': batch, 'markdown': _markdown(rows, ref),
             'ratio_reference': ref}
 
@@ -439,7 +440,8 @@ def main(argv=None) -> int:
         return 0
     result = run(options.quick, options.robot, options.targets)
     print(f"## Kinematics benchmark: {result['robot']}, {result['targets']} targets "
-          f"({result['machine']})\n")
+          f"({result['machine']}; load average {result['load_average_1min_at_end']:.1f} at "
+          'the end: timings scale with it)\n')
     print(result['markdown'])
     if result['batch']:
         b = result['batch']
