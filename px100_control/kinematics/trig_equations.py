@@ -192,7 +192,8 @@ def solve_type7(W1: float, W2: float, X: float, Y: float, Z1: float, Z2: float,
     Solve the type 7 pair for (qi, qj).
 
     W1 cos qj + W2 sin qj = X cos qi + Y sin qi + Z1 and
-    W1 sin qj - W2 cos qj = X sin qi - Y cos qi + Z2. Squaring and adding gives a type 2 equation in qi; qj then solves a type 3 pair.
+    W1 sin qj - W2 cos qj = X sin qi - Y cos qi + Z2. Squaring and adding gives a type 2
+    equation in qi; qj then solves a type 3 pair.
     """
     if math.hypot(W1, W2) <= eps:
         return []
