@@ -275,8 +275,8 @@ class Task:
 
     def __post_init__(self):
         """Cache plain-float copies."""
-        self._p = [float(x) for x in self.p]
-        self._R = [[float(x) for x in row] for row in self.R]
+        self._p = np.asarray(self.p, dtype=float).reshape(3).tolist()
+        self._R = np.asarray(self.R, dtype=float).reshape(3, 3).tolist()
         self._d = [self._R[0][0], self._R[1][0], self._R[2][0]]
 
     @property

@@ -58,6 +58,7 @@ class Px100Geometry:
     g3: float
     mu: float                  # elevation of the tool x axis at q = 0 [rad]
     R_M_F: np.ndarray          # (3, 3) tool orientation at q = 0 in F
+    tool_is_identity: bool     # R_M_F = I (fast path)
     lower: Tuple[float, ...]
     upper: Tuple[float, ...]
 
@@ -119,6 +120,7 @@ def geometry(model) -> Px100Geometry:
         L3=float(math.hypot(u4 - u3, v4 - v3)), g2=float(math.atan2(v4 - v3, u4 - u3)),
         L4=float(math.hypot(ue - u4, ve - v4)), g3=float(math.atan2(ve - v4, ue - u4)),
         mu=float(math.atan2(-xm[2], xm[0])), R_M_F=R_M_F,
+        tool_is_identity=bool(np.allclose(R_M_F, np.eye(3), atol=1e-15)),
         lower=tuple(float(v) for v in model.lower), upper=tuple(float(v) for v in model.upper))
 
 
@@ -224,6 +226,8 @@ def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
 
 def _tool_plane_rotation(g: Px100Geometry, T: np.ndarray) -> np.ndarray:
     """Return G = R_F^T R_target R_M_F^T, equal to Rz(waist) Ry(pitch sum) when reachable."""
+    if g.frame_is_base and g.tool_is_identity:
+        return T[:3, :3]
     return g.R_F.T @ T[:3, :3] @ g.R_M_F.T
 
 
@@ -235,7 +239,7 @@ def target_pitch(g: Px100Geometry, T: np.ndarray) -> Tuple[float, float]:
     the tool x axis (or 0). The pitch is measured from the outward direction (module doc).
     """
     P0, P1, _ = g.to_arm_frame(T[:3, 3])
-    X = g.R_F.T @ T[:3, 0]
+    X = T[:3, 0].tolist() if g.frame_is_base else (g.R_F.T @ T[:3, 0]).tolist()
     if P0 * P0 + P1 * P1 > 1e-24:
         a = math.atan2(P1, P0)
     elif X[0] * X[0] + X[1] * X[1] > 1e-24:
@@ -259,12 +263,12 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     P0, P1, P2 = g.to_arm_frame(T[:3, 3])
     out: list = []
     if mode == 'full':
-        G = _tool_plane_rotation(g, T)
-        if G[0, 1] * G[0, 1] + G[1, 1] * G[1, 1] > 1e-24:
-            t = math.atan2(-G[0, 1], G[1, 1])
+        G = _tool_plane_rotation(g, T).tolist()
+        if G[0][1] * G[0][1] + G[1][1] * G[1][1] > 1e-24:
+            t = math.atan2(-G[0][1], G[1][1])
         else:
             t = math.atan2(P1, P0)
-        phi = math.atan2(-G[2, 0], G[2, 2])
+        phi = math.atan2(-G[2][0], G[2][2])
         waists: list = []
         _waist_values(g, t, waists)
         for t1 in waists:
