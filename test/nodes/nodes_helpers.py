@@ -161,3 +161,95 @@ def start_node(processes, name: str, *params: str):
     proc = NodeProcess(name, args)
     processes.append(proc)
     return proc
+
+
+class IkClient(Node):
+    """Send ik/request and ik/path_request; collect every reply by stamp (counting repeats)."""
+
+    def __init__(self, name: str = 'test_ik_client', **kwargs):
+        from diagnostic_msgs.msg import DiagnosticStatus
+        from geometry_msgs.msg import PoseArray, PoseStamped
+        super().__init__(name, **kwargs)
+        self.lock = threading.Lock()
+        self.solutions = {}   # (sec, nanosec) -> [JointState]
+        self.statuses = {}    # 'sec.nanosec' -> [DiagnosticStatus]
+        self.paths = {}       # (sec, nanosec) -> [JointTrajectory]
+        qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        self.pub = self.create_publisher(PoseStamped, '/px100/ik/request', qos)
+        self.pub_path = self.create_publisher(PoseArray, '/px100/ik/path_request', 10)
+        self.create_subscription(JointState, '/px100/ik/solution', self._on_solution, qos)
+        self.create_subscription(DiagnosticStatus, '/px100/ik/status', self._on_status, qos)
+        self.create_subscription(JointTrajectory, '/px100/ik/path_solution', self._on_path, 10)
+
+    def _on_solution(self, msg):
+        with self.lock:
+            self.solutions.setdefault((msg.header.stamp.sec, msg.header.stamp.nanosec),
+                                      []).append(msg)
+
+    def _on_status(self, msg):
+        with self.lock:
+            self.statuses.setdefault(msg.hardware_id, []).append(msg)
+
+    def _on_path(self, msg):
+        with self.lock:
+            self.paths.setdefault((msg.header.stamp.sec, msg.header.stamp.nanosec),
+                                  []).append(msg)
+
+    def ready(self) -> bool:
+        """Return True once the ik_service matched our request publisher and reply readers."""
+        return (self.pub.get_subscription_count() > 0
+                and self.count_publishers('/px100/ik/status') > 0
+                and self.pub_path.get_subscription_count() > 0)
+
+    def request(self, pose, frame_id: str = '', stamp=None) -> Time:
+        """Publish one ik/request for a geometry_msgs/Pose; return its id stamp."""
+        from geometry_msgs.msg import PoseStamped
+        msg = PoseStamped()
+        msg.header.stamp = stamp or unique_stamp()
+        msg.header.frame_id = frame_id
+        msg.pose = pose
+        self.pub.publish(msg)
+        return msg.header.stamp
+
+    def request_path(self, poses, frame_id: str = '') -> Time:
+        """Publish one ik/path_request; return its id stamp."""
+        from geometry_msgs.msg import PoseArray
+        msg = PoseArray()
+        msg.header.stamp = unique_stamp()
+        msg.header.frame_id = frame_id
+        msg.poses = list(poses)
+        self.pub_path.publish(msg)
+        return msg.header.stamp
+
+    def reply(self, stamp, timeout: float = 10.0):
+        """Wait for the solution and status of a request; return (JointState, status)."""
+        key, hw = (stamp.sec, stamp.nanosec), f'{stamp.sec}.{stamp.nanosec:09d}'
+
+        def both():
+            with self.lock:
+                return key in self.solutions and hw in self.statuses
+        assert wait_for(both, timeout), f'no reply to ik request {hw}'
+        with self.lock:
+            return self.solutions[key][0], self.statuses[hw][0]
+
+    def path_reply(self, stamp, timeout: float = 20.0):
+        """Wait for the path solution and status of a path request; return both."""
+        key, hw = (stamp.sec, stamp.nanosec), f'{stamp.sec}.{stamp.nanosec:09d}'
+
+        def both():
+            with self.lock:
+                return key in self.paths and hw in self.statuses
+        assert wait_for(both, timeout), f'no reply to ik path request {hw}'
+        with self.lock:
+            return self.paths[key][0], self.statuses[hw][0]
+
+    def counts(self, stamp):
+        """Return (number of solutions, number of statuses) received for a request."""
+        with self.lock:
+            return (len(self.solutions.get((stamp.sec, stamp.nanosec), [])),
+                    len(self.statuses.get(f'{stamp.sec}.{stamp.nanosec:09d}', [])))
+
+
+def status_values(status) -> dict:
+    """Return the KeyValue list of a DiagnosticStatus as a dict."""
+    return {kv.key: kv.value for kv in status.values}
