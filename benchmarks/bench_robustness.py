@@ -44,6 +44,8 @@ def _fuzz(graph, probe, lim, model, count_for, log) -> dict:
         violations_before = len(probe.violations)
         log(f'fuzz {name}: {n} inputs')
         failure = None
+        if t.before:
+            t.before()
         try:
             camp = fuzz(t.strategy, t.send, n, graph, probe, name, derandomize=False)
         except FuzzFailure as exc:
@@ -53,6 +55,8 @@ def _fuzz(graph, probe, lim, model, count_for, log) -> dict:
             failure = f'{type(exc).__name__}: {exc}'
             camp = None
         graph.revive(probe, cause=f'after fuzzing {name}')
+        if t.after:
+            t.after()
         still = [p for p in (driver_works(probe), ik_works(probe, model),
                              goal_works(probe, lim)) if p]
         fig = camp.summary() if camp is not None else {'target': name}
@@ -110,7 +114,7 @@ def survived(name: str, fig: dict) -> bool:
             and isinstance(fig.get('reader_messages'), int)
     if name.startswith('slow_subscriber'):
         return fig.get('goal') == '' and fig.get('ik') == '' and all(
-            s['rate'] >= 80.0 and s['max_gap'] <= 0.5 for s in fig.get('rates', {}).values())
+            s['rate'] >= 50.0 and s['max_gap'] <= 1.0 for s in fig.get('rates', {}).values())
     return False
 
 

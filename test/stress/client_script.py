@@ -1,8 +1,8 @@
 """
 A user script driving the arm through the Interbotix-compatible client (run as a process).
 
-It connects, makes ``--moves`` joint moves (short moving times, a different target pattern per
-``--index``), then disconnects. Prints one JSON line: moves tried and succeeded, and the ids
+It connects, makes ``--moves`` joint moves (a 2 s move near home, then short moves around it; a
+different pattern per ``--index``), then disconnects. Prints one JSON line: moves tried and succeeded, and the ids
 (``sec.nanosec`` stamps) of the goals it sent, so a test can look for each one in a bag.
 Usage: ``python client_script.py --index I --moves N [--moving-time S]``.
 """
@@ -17,7 +17,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--index', type=int, default=0)
     parser.add_argument('--moves', type=int, default=4)
-    parser.add_argument('--moving-time', type=float, default=0.4)
+    parser.add_argument('--moving-time', type=float, default=0.6)
     opts = parser.parse_args(argv)
 
     import numpy as np
@@ -31,23 +31,34 @@ def main(argv=None) -> int:
     robot_startup()
     connect_s = time.monotonic() - t0
     rng = np.random.default_rng(opts.index)
-    model_lo = np.array([-1.0, -0.6, -0.6, -0.6])
-    model_hi = np.array([1.0, 0.6, 0.6, 0.6])
     ok, goals, failures = 0, [], []
+    # from wherever the last script left the arm: home first (sleep -> home takes a while)
+    home = list(np.round(rng.uniform(-0.2, 0.2, 4), 3))
+    lower = np.array(bot.core.model.lower) + 0.05
+    upper = np.array(bot.core.model.upper) - 0.05
     for i in range(opts.moves):
-        target = rng.uniform(model_lo, model_hi)
-        good = bot.arm.set_joint_positions(list(target), moving_time=opts.moving_time,
-                                           accel_time=opts.moving_time / 4, blocking=True)
+        if i == 0:
+            target, mt = home, 2.0
+        else:  # small moves around where the arm really is
+            here = bot.arm.get_joint_positions()
+            target = np.clip(np.add(here, rng.uniform(-0.25, 0.25, 4)), lower, upper)
+            target, mt = list(target), opts.moving_time
+        before = bot.arm._last_goal
+        good = bot.arm.set_joint_positions(list(target), moving_time=mt, accel_time=mt / 4,
+                                           blocking=True)
         last = bot.arm._last_goal
-        if last is not None:
+        if last is not None and last is not before:
             goals.append(stamp_id(Time(sec=last.key[0], nanosec=last.key[1])))
         if good:
             ok += 1
         else:
+            reason = getattr(last, 'reason', '') if last is not None else ''
             failures.append(f'move {i} to {np.round(target, 3).tolist()}: '
-                            f'{bot.arm.last_goal_status()}')
+                            f'{bot.arm.last_goal_status()} {reason}')
     robot_shutdown()
     print(json.dumps({'index': opts.index, 'moves': opts.moves, 'succeeded': ok,
+                      'tracking_aborts': sum('tracking error' in f or 'did not settle' in f
+                                             for f in failures),
                       'goals': goals, 'failures': failures, 'connect_s': connect_s,
                       'seconds': time.monotonic() - t0}), flush=True)
     return 0 if ok == opts.moves else 1

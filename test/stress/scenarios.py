@@ -17,7 +17,7 @@ from typing import Dict, List, Optional
 from action_msgs.msg import GoalStatus
 
 from .harness import Graph, Probe, stamp_text
-from .targets import goal_works, ik_works, SLEEP
+from .targets import goal_works, ik_works, level_of, SLEEP
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -68,30 +68,40 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
     """
     Kill sim_driver while the client waits for a long move; restart it; move again.
 
+    The move turns the waist by 0.8 rad in ``moving_time`` from where the arm is (gentle, so it
+    is still running when the driver dies); a move the server ended before the kill (tracking,
+    on a starved CPU) is retried up to 3 times.
     :return: figures: client_return_s (kill -> the blocking call returned), client_ok,
-        client_reason, abort_s (kill -> ABORTED on trajectory/status), diagnostic (the reason
-        on /diagnostics), recovered (the same client's next move SUCCEEDED), recover_s
+        client_reason, abort_s (kill -> ABORTED on trajectory/status), diagnostic (level and
+        reason on /diagnostics), recovered (the same client's next move SUCCEEDED), recover_s
     """
     arm = bot.arm
-    out = {'signal': signal.Signals(sig).name}
-    target = [0.6, 0.3, -0.3, 0.2]
-    result = {}
+    out = {'signal': signal.Signals(sig).name, 'pre_kill_endings': []}
+    for _attempt in range(3):
+        q = list(bot.core.joint_positions(arm.joint_names))
+        target = list(q)
+        target[0] = q[0] + 0.8 if q[0] < 1.0 else q[0] - 0.8
+        result = {}
 
-    def move():
-        pending = bot.core.send_trajectory(arm.joint_names, [target], [moving_time])
-        result['key'] = f'{pending.key[0]}.{pending.key[1]:09d}'
-        ok, reason = bot.core.wait_for_goal(pending, moving_time + 10.0)
-        result['t_return'] = time.monotonic()
-        result['ok'], result['reason'] = ok, reason
+        def move(target=target, result=result):
+            pending = bot.core.send_trajectory(arm.joint_names, [target], [moving_time])
+            result['key'] = f'{pending.key[0]}.{pending.key[1]:09d}'
+            ok, reason = bot.core.wait_for_goal(pending, moving_time + 10.0)
+            result['t_return'] = time.monotonic()
+            result['ok'], result['reason'] = ok, reason
 
-    th = threading.Thread(target=move, daemon=True)
-    th.start()
-    if not probe.wait_for(lambda: 'key' in result and probe.goal_status.get(result['key'])
-                          == GoalStatus.STATUS_EXECUTING, 5.0):
-        out['error'] = f'the client goal never ran: {result}'
+        th = threading.Thread(target=move, daemon=True)
+        th.start()
+        running = probe.wait_for(lambda: 'key' in result and probe.goal_status.get(
+            result['key']) == GoalStatus.STATUS_EXECUTING, 5.0)
+        time.sleep(kill_after)
+        if running and 't_return' not in result:
+            break
         th.join(moving_time + 12)
+        out['pre_kill_endings'].append(result.get('reason') or f'never ran: {result}')
+    else:
+        out['error'] = f'no move was still running {kill_after} s after it started'
         return out
-    time.sleep(kill_after)
     t_kill = time.monotonic()
     graph.procs['sim_driver'].signal(sig)
     th.join(moving_time + 12.0)
@@ -99,15 +109,15 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
     out['client_ok'] = result.get('ok')
     out['client_reason'] = result.get('reason')
     out['client_return_s'] = result['t_return'] - t_kill if 't_return' in result else None
-    aborted = probe.wait_for(lambda: probe.goal_status.get(key) in
-                             (GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED,
-                              GoalStatus.STATUS_SUCCEEDED), 10.0)
-    out['abort_s'] = time.monotonic() - t_kill if aborted else None
+    ended = probe.wait_for(lambda: probe.goal_status.get(key) in
+                           (GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED,
+                            GoalStatus.STATUS_SUCCEEDED), 10.0)
+    out['abort_s'] = time.monotonic() - t_kill if ended else None
     out['final_status'] = probe.goal_status.get(key)
     out['status_history'] = probe.goal_history.get(key)
+    probe.wait_for(lambda: any(d.hardware_id == key for d in probe.diagnostics), 2.0)
     diags = [d for d in list(probe.diagnostics) if d.hardware_id == key]
-    out['diagnostic'] = [(int.from_bytes(d.level, 'little') if isinstance(d.level, bytes)
-                          else int(d.level), d.message) for d in diags]
+    out['diagnostic'] = [(level_of(d), d.message) for d in diags]
     deadline = time.monotonic() + 15.0
     while graph.procs['sim_driver'].alive() and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -117,22 +127,29 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
     graph.start('sim_driver')
     probe.wait_ready(['sim_driver'], timeout=30.0)
     deadline = time.monotonic() + 10.0
-    while bot.core.joint_state_age() > 0.5 and time.monotonic() < deadline:
+    while bot.core.joint_state_age() > 0.2 and time.monotonic() < deadline:
         time.sleep(0.05)
-    ok = arm.set_joint_positions([0.2, 0.0, 0.0, 0.0], moving_time=1.0, blocking=True)
+    time.sleep(0.5)
+    ok = arm.set_joint_positions([0.3, -1.88, 1.5, 0.8], moving_time=2.0, blocking=True)
     out['recovered'] = bool(ok)
     out['recover_s'] = time.monotonic() - t_restart
     out['recovery_goal_status'] = arm.last_goal_status()
+    if not ok:
+        last = client_goal_key(bot)
+        out['recovery_reason'] = [d.message for d in list(probe.diagnostics)
+                                  if d.hardware_id == last]
     return out
 
 
-def kill_ik_service(graph: Graph, probe: Probe, bot, model, sig=signal.SIGKILL) -> dict:
+def kill_ik_service(graph: Graph, probe: Probe, bot, model, sig=signal.SIGKILL,
+                    recover_timeout: float = 15.0) -> dict:
     """
     Kill ik_service, then ask the client for IK; restart it and ask again.
 
     :return: figures: raised (the exception text of ``core.request_ik``), request_s (how long
         that call took), arm_ok / arm_s (``arm.set_ee_pose_matrix`` result and time),
-        recovered (a request after the restart is solved)
+        recovered (a client request after the restart is solved), recover_s (restart -> the
+        first solved client request), recover_attempts
     """
     out = {'signal': signal.Signals(sig).name}
     T = model.fk([0.3, -0.2, 0.4, 0.2])
@@ -152,12 +169,24 @@ def kill_ik_service(graph: Graph, probe: Probe, bot, model, sig=signal.SIGKILL) 
     t0 = time.monotonic()
     graph.start('ik_service')
     probe.wait_ready(['ik_service'], timeout=30.0)
-    deadline = time.monotonic() + 10.0
-    while bot.core.pub_ik.get_subscription_count() == 0 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    time.sleep(0.3)
+    attempts, errors = 0, []
+    out['recovered'] = False
+    while time.monotonic() - t0 < recover_timeout:
+        attempts += 1
+        try:
+            reply = bot.core.request_ik(T, timeout=2.0)
+            if reply.success:
+                out['recovered'] = True
+                break
+            errors.append(reply.reason)
+        except Exception as exc:  # noqa: B902
+            errors.append(f'{type(exc).__name__}: {exc}')
+        time.sleep(0.2)
+    out['recover_s'] = time.monotonic() - t0
+    out['recover_attempts'] = attempts
+    out['recover_errors'] = errors[:3]
     _, ok = bot.arm.set_ee_pose_matrix(T, execute=False)
-    out['recovered'], out['recover_s'] = bool(ok), time.monotonic() - t0
+    out['arm_recovered'] = bool(ok)
     return out
 
 
@@ -295,17 +324,24 @@ def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int
     bag_setpoints = {_setpoint_key(m) for _, m in bag['/px100/commands/joint_setpoints']}
     goals = [g for r in results for g in r.get('goals', [])]
     missing_goals = [g for g in goals if g not in bag_goals]
+    # where the lost goals were: (script, n-th goal of that script) and whether the probe saw it
+    missing_where = [(i, r['goals'].index(g)) for i, r in enumerate(results)
+                     for g in r.get('goals', []) if g in missing_goals]
     missing_sp = [k for k in seen if k not in bag_setpoints]
     return {
         'scripts': scripts, 'moves_per_script': moves,
         'moves_succeeded': sum(r.get('succeeded', 0) for r in results),
+        'moves_tracking_aborted': sum(r.get('tracking_aborts', 0) for r in results),
         'script_errors': [r.get('error') or r.get('failures') for r in results
                           if r.get('error') or r.get('failures')],
+        'scripts_without_result': [r['error'] for r in results if 'error' in r],
         'goals_sent': len(goals), 'goals_missing_in_bag': len(missing_goals),
         'setpoints_seen': len(seen), 'setpoints_in_bag': len(bag_setpoints),
         'setpoints_missing_in_bag': len(missing_sp),
         'joint_states_in_bag': len(bag['/px100/joint_states']),
         'recorder_exit': rec.returncode, 'missing_examples': (missing_goals + missing_sp)[:5],
+        'missing_goals_where': missing_where,
+        'missing_goals_seen_by_probe': [g for g in missing_goals if g in probe.goal_status],
     }
 
 
