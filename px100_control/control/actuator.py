@@ -93,12 +93,33 @@ XL430_W250 = ServoSpec()
 GENERIC_LINEAR = ServoSpec(model='generic-linear', stall_torque=40.0, no_load_speed=0.4,
                            velocity_limit=0.2, armature=0.5)
 
+#: joints whose URDF effort limit is at most this [N*m] get the XL430 (the PX100 URDF lists
+#: 1-2 N*m for its XL430 joints); stronger joints get a servo scaled to their effort limit.
+XL430_CLASS_EFFORT = 2.0
 
-def servo_for_joint(joint_type: str, overrides: dict = None) -> ServoSpec:
-    """
-    Return the servo of a joint: XL430-W250 for revolute joints, a generic linear actuator else.
 
-    :param overrides: optional fields to change (e.g. from a robot file's ``dynamics`` section)
+def servo_for_joint(joint_type: str, effort_limit: float = None,
+                    overrides: dict = None) -> ServoSpec:
     """
-    base = GENERIC_LINEAR if joint_type == 'prismatic' else XL430_W250
+    Return the servo model of a joint.
+
+    Revolute joints with an effort limit <= 2 N*m (or none) get the XL430-W250. A stronger
+    revolute joint (other robots' shoulders: 10-20 N*m) gets a generic servo whose stall torque
+    is its effort limit and whose armature scales with it (same time constants as the XL430).
+    Prismatic joints get a generic linear actuator (stall force = effort limit if given).
+    :param overrides: ServoSpec fields to force (e.g. a robot file's ``dynamics`` section)
+    """
+    if joint_type == 'prismatic':
+        base = GENERIC_LINEAR
+        if effort_limit and math.isfinite(effort_limit) and effort_limit > 0:
+            scale = effort_limit / base.stall_torque
+            base = base.with_changes(stall_torque=float(effort_limit),
+                                     armature=base.armature * scale)
+    else:
+        base = XL430_W250
+        if effort_limit and math.isfinite(effort_limit) and effort_limit > XL430_CLASS_EFFORT:
+            scale = effort_limit / base.stall_torque
+            base = base.with_changes(model=f'generic-{effort_limit:g}Nm',
+                                     stall_torque=float(effort_limit),
+                                     armature=base.armature * scale)
     return base.with_changes(**overrides) if overrides else base

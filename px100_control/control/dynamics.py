@@ -167,7 +167,8 @@ class ChainDynamics:
             tuple(float(x) for x in (w[k, 0] ** 2, w[k, 1] ** 2, w[k, 2] ** 2,
                                      w[k, 0] * w[k, 1], w[k, 0] * w[k, 2], w[k, 1] * w[k, 2])),
             float(self.masses[k]), tuple(self.coms[k].tolist()),
-            tuple(tuple(row) for row in self.inertias[k].tolist()), float(self.armature[k]))
+            tuple(tuple(row) for row in self.inertias[k].tolist()), float(self.armature[k]),
+            bool(np.linalg.norm(w[k]) < 1e-9))
             for k in range(n)]
 
     @property
@@ -247,9 +248,9 @@ class ChainDynamics:
         p0 = p1 = p2 = 0.0
         Js, bodies = [], []
         for k in range(n):
-            (wx, wy, wz), (vx, vy, vz), Wv, W2v, ww, m, c0, I0, _ = joints[k]
+            (wx, wy, wz), (vx, vy, vz), Wv, W2v, ww, m, c0, I0, _, prismatic = joints[k]
             qk = q[k]
-            s, co = sin(qk), cos(qk)
+            s, co = (0.0, 1.0) if prismatic else (sin(qk), cos(qk))
             oc, qs = 1.0 - co, qk - s
             # space-Jacobian column J_k = Ad_{T_{k-1}} S_k
             jw0 = R00 * wx + R01 * wy + R02 * wz

@@ -150,6 +150,15 @@ class Pid:
         """Clear the integral."""
         self.integral = 0.0
 
+    def preload(self, term: float) -> None:
+        """Set the integral so that the integral term equals ``term`` [N*m] (within i_clamp)."""
+        if self._i <= 0.0:
+            self.integral = 0.0
+            return
+        integral = term / self._i
+        lim = self._ilim
+        self.integral = lim if integral > lim else (-lim if integral < -lim else integral)
+
     def step(self, error: float, dt: float, error_rate: float = 0.0,
              velocity_ref: float = 0.0) -> float:
         """

@@ -39,7 +39,7 @@ from typing import List, Optional
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from px100_control.control.pid import GAIN_FIELDS, PidGains
-from px100_control.control.simulator import ArmSimulator, default_gains, SimConfig
+from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
@@ -56,8 +56,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 
-#: physics chunk timer when publish_rate is low, and in clock-master mode [Hz]
+#: physics chunk timer in clock-master mode [Hz]
 TICK_RATE = 200.0
+#: below this publish_rate [Hz] an extra timer advances the physics in follow-clock mode
+#: (setpoints and service calls also catch the physics up to "now" before they apply)
+FOLLOW_TICK_RATE = 20.0
 #: most simulated time one chunk may integrate before the driver drops time [s]
 MAX_CHUNK = 0.5
 #: wall-time budget of one chunk in clock-master mode [s]
@@ -89,7 +92,7 @@ class SimDriverNode(Node):
             read_only=True))
         self.declare_parameter('clock_rate', 250.0, ParameterDescriptor(
             description='/clock rate in simulated time [Hz]'))
-        self.declare_parameter('dynamics_divider', 1, ParameterDescriptor(
+        self.declare_parameter('dynamics_divider', 4, ParameterDescriptor(
             description='re-evaluate the mass matrix and bias forces every k physics steps'))
         self.declare_parameter('object_width', 0.0, ParameterDescriptor(
             description='width of an object between the fingers [m], 0 = none'))
@@ -99,33 +102,27 @@ class SimDriverNode(Node):
         if units not in ('si', 'dynamixel'):
             raise Px100Error(f"gains_units must be 'si' or 'dynamixel', not {units!r}")
         self._units = units
-        self._gain_joints = list(self.model.joint_names)
-        joint_types = dict(zip(self.model.joint_names, self.model.joint_types))
-        if self.model.gripper is not None:
-            self._gain_joints.append(self.model.gripper.joint)
-            joint_types[self.model.gripper.joint] = 'gripper'
-        gains = {}
-        for joint in self._gain_joints:
-            base = default_gains(joint_types[joint])
-            reg = base.to_dynamixel() if units == 'dynamixel' else None
-            values = {}
-            for k, f in enumerate(GAIN_FIELDS):
-                default = getattr(base, f)
-                if reg is not None and k < 3:
-                    default = round(reg[k])
-                default = float(default)
-                values[f] = self.declare_parameter(f'gains.{joint}.{f}', default, dyn).value
-            error = self._gains_error(joint, values)
-            if error:
-                raise Px100Error(error)
-            gains[joint] = self._to_gains(values)
         p = {name: self.get_parameter(name).value for name in _CORE_PARAMS}
         error = self._core_error(p)
         if error:
             raise Px100Error(error)
         self.sim = ArmSimulator(self.model, SimConfig(
             control_rate=float(p['control_rate']), dynamics_divider=int(p['dynamics_divider']),
-            object_width=float(p['object_width'])), gains)
+            object_width=float(p['object_width'])))
+        self._gain_joints = list(self.sim.command_joints)
+        for joint in self._gain_joints:
+            base = self.sim.gains(joint)      # defaults scaled to the joint's servo
+            reg = base.to_dynamixel() if units == 'dynamixel' else None
+            values = {}
+            for k, f in enumerate(GAIN_FIELDS):
+                default = float(getattr(base, f))
+                if reg is not None and k < 3:
+                    default = float(round(reg[k]))
+                values[f] = self.declare_parameter(f'gains.{joint}.{f}', default, dyn).value
+            error = self._gains_error(joint, values)
+            if error:
+                raise Px100Error(error)
+            self.sim.set_gains(joint, self._to_gains(values, joint))
         for note in self.sim.dynamics.notes:
             self.get_logger().info(f'dynamics: {note}')
         self._lock = threading.Lock()
@@ -158,8 +155,10 @@ class SimDriverNode(Node):
         self._start_ns = self.get_clock().now().nanoseconds
         self._wall_anchor = time.monotonic()
         self._sim_anchor_ns = 0
-        self._next_pub_ns = 0
-        self._next_clock_ns = 0
+        self._next_pub_ns = int(round(1e9 / self._publish_rate))
+        self._next_clock_ns = int(round(1e9 / self._clock_rate))
+        if self._master:
+            self.pub_clock.publish(ClockMsg(clock=_time_msg(0)))
         self.achieved_rtf = math.nan
         self._make_timers()
         mode = (f'own clock, real_time_factor {self._rtf:g}, /clock at {self._clock_rate:g} Hz'
@@ -169,11 +168,18 @@ class SimDriverNode(Node):
             f'{1e9 / self._dt_ns:g} Hz, joint_states at {self._publish_rate:g} Hz, {mode}')
 
     # --- parameters ----------------------------------------------------------------------------
-    def _to_gains(self, values: dict) -> PidGains:
+    def _servo(self, joint: str):
+        if joint == self.sim.gripper_name:
+            return self.sim.gripper_servo
+        return self.sim.servos[self.sim.names.index(joint)]
+
+    def _to_gains(self, values: dict, joint: str) -> PidGains:
         values = {k: float(v) for k, v in values.items()}
         if self._units == 'dynamixel':
             clamps = {k: values[k] for k in ('i_clamp', 'u_clamp', 'ff_velocity')}
-            return PidGains.from_dynamixel(values['p'], values['i'], values['d'], **clamps)
+            return PidGains.from_dynamixel(values['p'], values['i'], values['d'],
+                                           stall_torque=self._servo(joint).stall_torque,
+                                           **clamps)
         return PidGains(**values)
 
     def _gains_error(self, joint: str, values: dict) -> Optional[str]:
@@ -181,21 +187,20 @@ class SimDriverNode(Node):
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 return f'gains.{joint}.{f} must be a number, not {v!r}'
         try:
-            gains = self._to_gains(values)
+            gains = self._to_gains(values, joint)
         except Px100Error as exc:
             return f'gains.{joint}: {exc}'
-        sim = getattr(self, 'sim', None)
-        if sim is not None:
-            dt = sim.dt
-            inertia = (sim.gripper_servo.armature if joint == sim.gripper_name
-                       else sim.dynamics.armature[sim.names.index(joint)])
-            inertia = max(inertia, 1e-6)
-            if gains.d * dt > inertia:
-                return (f'gains.{joint}.d = {gains.d:.6g} would make the explicit control loop '
-                        f'unstable at {1.0 / dt:g} Hz (needs d < J/dt = {inertia / dt:.6g})')
-            if gains.p * dt * dt > inertia:
-                return (f'gains.{joint}.p = {gains.p:.6g} would make the loop unstable at '
-                        f'{1.0 / dt:g} Hz (needs p < J/dt^2 = {inertia / dt / dt:.6g})')
+        return self._stability_error(joint, gains, self.sim.dt)
+
+    def _stability_error(self, joint: str, gains: PidGains, dt: float) -> Optional[str]:
+        """Refuse gains the explicit discrete loop cannot take (J = the servo's armature)."""
+        inertia = max(self._servo(joint).armature, 1e-6)
+        if gains.d * dt > inertia:
+            return (f'gains.{joint}.d = {gains.d:.6g} would make the control loop unstable at '
+                    f'{1.0 / dt:g} Hz (needs d < J/dt = {inertia / dt:.6g})')
+        if gains.p * dt * dt > inertia:
+            return (f'gains.{joint}.p = {gains.p:.6g} would make the control loop unstable at '
+                    f'{1.0 / dt:g} Hz (needs p < J/dt^2 = {inertia / dt / dt:.6g})')
         return None
 
     def _core_error(self, p: dict) -> Optional[str]:
@@ -257,14 +262,10 @@ class SimDriverNode(Node):
             if 'control_rate' in changed:
                 dt = 1.0 / float(changed['control_rate'])
                 for joint in self._gain_joints:
-                    g = self.sim.gains(joint)
-                    inertia = (self.sim.gripper_servo.armature
-                               if joint == self.sim.gripper_name
-                               else self.sim.dynamics.armature[self.sim.names.index(joint)])
-                    if g.d * dt > inertia or g.p * dt * dt > inertia:
+                    error = self._stability_error(joint, self.sim.gains(joint), dt)
+                    if error:
                         return SetParametersResult(successful=False, reason=(
-                            f'control_rate {changed["control_rate"]} Hz is too slow for the '
-                            f"gains of '{joint}'"))
+                            f"control_rate {changed['control_rate']} Hz: {error}"))
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, params: List[Parameter]) -> None:
@@ -274,7 +275,7 @@ class SimDriverNode(Node):
                 keys = [f'gains.{joint}.{f}' for f in GAIN_FIELDS]
                 if any(k in changed for k in keys):
                     values = {f: self.get_parameter(k).value for f, k in zip(GAIN_FIELDS, keys)}
-                    self.sim.set_gains(joint, self._to_gains(values))
+                    self.sim.set_gains(joint, self._to_gains(values, joint))
                     self.get_logger().info(f'gains of {joint}: {self.sim.gains(joint)}')
             if 'object_width' in changed:
                 self.sim.set_object_width(float(changed['object_width']))
@@ -310,8 +311,8 @@ class SimDriverNode(Node):
                                                   clock=steady))
             return
         self._timers.append(self.create_timer(1.0 / self._publish_rate, self._on_publish_tick))
-        if self._publish_rate < TICK_RATE / 2:
-            self._timers.append(self.create_timer(1.0 / TICK_RATE, self._on_follow_tick))
+        if self._publish_rate < FOLLOW_TICK_RATE:
+            self._timers.append(self.create_timer(1.0 / FOLLOW_TICK_RATE, self._on_follow_tick))
 
     def _advance_steps(self, steps: int) -> None:
         step = self.sim.step
@@ -423,16 +424,25 @@ class SimDriverNode(Node):
         self.pub_diag.publish(diag)
 
     # --- callbacks -----------------------------------------------------------------------------
+    def _catch_up(self) -> None:
+        """Follow-clock mode: integrate up to now, so a command applies at its arrival time."""
+        if not self._master:
+            self._advance_to_clock()
+
     def _on_setpoints(self, msg: JointState) -> None:
         try:
+            cmd = parse_setpoints(msg.name, msg.position, msg.velocity, msg.effort,
+                                  self.sim.command_joints, self.sim.gripper_name)
+            self.sim.check(cmd)
             with self._lock:
-                self.sim.command(list(msg.name), list(msg.position), list(msg.velocity),
-                                 list(msg.effort))
+                self._catch_up()
+                self.sim.apply(cmd)
         except Px100Error as exc:
             self._refuse(str(exc), msg.name)
 
     def _on_torque(self, request, response):
         with self._lock:
+            self._catch_up()
             self.sim.set_torque_enabled(request.data)
         response.success = True
         response.message = 'torque on' if request.data else 'torque off'
@@ -441,6 +451,7 @@ class SimDriverNode(Node):
 
     def _on_reset(self, request, response):
         with self._lock:
+            self._catch_up()
             self.sim.reset()
         response.success = True
         response.message = 'reset to the sleep pose'
