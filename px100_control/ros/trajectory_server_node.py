@@ -83,8 +83,8 @@ PARAMETERS = {
     'accel_time': (0.3, 'trapezoidal ramp time [s], clipped to moving_time/2'),
     'max_joint_step': (0.01, 'linear_max_step: largest joint step between setpoints [rad]'),
     'state_timeout': (1.0, 'abort a goal when joint_states stop for this long [s]'),
-    'path_tolerance': (0.2, 'abort when a joint is this far from its recent setpoints [rad]'),
-    'path_window': (0.2, 'tracking compares with the setpoints of the last path_window [s]'),
+    'path_tolerance': (0.2, 'abort when a joint is this far from its setpoints [rad]'),
+    'path_window': (0.2, 'a measurement may lag its setpoints by this much [s]'),
     'goal_tolerance': (0.002, 'success when every joint is this close to the end [rad]'),
     'goal_time_tolerance': (1.0, 'time allowed after the trajectory to settle [s]'),
     'stop_deceleration': (10.0, 'deceleration of a canceled goal [rad/s^2]'),
@@ -132,6 +132,7 @@ class TrajectoryServerNode(Node):
         # measured state (arm joints in group order) and when it arrived (steady ns)
         self._meas = np.full(self._n, np.nan)
         self._meas_steady_ns: Optional[int] = None
+        self._meas_stamp_ns = 0  # header stamp of the measurement (node clock domain)
         self._js_map_names = None
         self._js_map = None
         self._active: Optional[_Goal] = None
@@ -196,6 +197,8 @@ class TrajectoryServerNode(Node):
                 if i < len(pos):
                     self._meas[j] = pos[i]
             self._meas_steady_ns = self._steady.now().nanoseconds
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            self._meas_stamp_ns = stamp or self.get_clock().now().nanoseconds
 
     def _state_age(self) -> float:
         """Return seconds since the last joint_states (inf if none)."""
@@ -371,16 +374,19 @@ class TrajectoryServerNode(Node):
                                  'canceled: at rest at ' + self._fmt(q))
                 return
             if t < g.traj.duration:
-                err = self._tracking_error(g, t)
+                err = self._tracking_error(g, t, now.nanoseconds)
                 j = int(np.argmax(err))
                 if err[j] > float(self._param('path_tolerance')):
                     self._active = None
                     self._hold_measured()
+                    lag = (now.nanoseconds - self._meas_stamp_ns) * 1e-9
                     self._finish(g, GoalStatus.STATUS_ABORTED,
                                  f"tracking error of joint '{self._names[j]}' is "
                                  f'{err[j]:.4g} rad (path_tolerance '
                                  f'{self._param("path_tolerance")} rad) at t = {t:.3f} s: '
-                                 'joint blocked or driver not following')
+                                 f'measured {self._meas[j]:.4f} rad ({lag:.3f} s before), '
+                                 f'setpoint {q[j]:.4f} rad; joint blocked or driver not '
+                                 'following')
                 return
             err = np.abs(self._meas - q)
             tol = float(self._param('goal_tolerance'))
@@ -397,17 +403,19 @@ class TrajectoryServerNode(Node):
                              f'> goal_tolerance {tol} rad, '
                              f'{t - g.traj.duration:.2f} s after the trajectory ended')
 
-    def _tracking_error(self, goal: _Goal, t: float) -> np.ndarray:
+    def _tracking_error(self, goal: _Goal, t: float, now_ns: int) -> np.ndarray:
         """
-        Return (n,) how far each measured joint lies outside its recent setpoints [rad].
+        Return (n,) how far each measured joint lies outside its setpoints [rad].
 
-        The setpoints of the last ``path_window`` seconds span an interval per joint; being
-        anywhere inside it (the driver lagging behind) is no error.
+        The measurement is compared with the setpoints of the ``path_window`` seconds before it
+        was taken (its header stamp: transport and scheduling delays are not errors); being
+        anywhere within the span of those setpoints (the driver lagging) is no error.
         """
         w = float(self._param('path_window'))
-        q_a = goal.traj.sample(t - w)[0]
-        q_b = goal.traj.sample(t - 0.5 * w)[0]
-        q_c = goal.last_q
+        t_meas = t - max(0.0, (now_ns - self._meas_stamp_ns) * 1e-9)
+        q_a = goal.traj.sample(t_meas - w)[0]
+        q_b = goal.traj.sample(t_meas - 0.5 * w)[0]
+        q_c = goal.traj.sample(t_meas)[0]
         lo = np.minimum(np.minimum(q_a, q_b), q_c)
         hi = np.maximum(np.maximum(q_a, q_b), q_c)
         return np.maximum(np.maximum(self._meas - hi, lo - self._meas), 0.0)

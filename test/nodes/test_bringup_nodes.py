@@ -1,0 +1,53 @@
+"""
+bringup: the three nodes in one process, as built by create_nodes and as the executable.
+
+The executable runs the default wall-clock deployment; its timing is only as good as the load of
+the machine allows, so the tracking bounds here are loose and the check is the arrival within
+2 mrad, a SUCCEEDED status, an IK answer and a clean SIGINT stop.
+"""
+import time
+
+from nodes_helpers import IkClient, start_node, STARTUP_TIMEOUT, TrajectoryClient, wait_for
+import numpy as np
+from px100_control.models.registry import load_robot
+from px100_control.ros.conversions import matrix_to_pose
+import pytest
+
+pytestmark = pytest.mark.ros
+
+MODEL = load_robot('px100')
+ARM = list(MODEL.joint_names)
+
+
+def test_create_nodes_builds_the_three_nodes(ros_ctx):
+    """create_nodes returns sim_driver, ik_service and trajectory_server, kwargs forwarded."""
+    from px100_control.ros.bringup import create_nodes
+    nodes = create_nodes(context=ros_ctx, namespace='/bringup_test')
+    try:
+        assert [n.get_name() for n in nodes] == ['sim_driver', 'ik_service', 'trajectory_server']
+        assert all(n.get_namespace() == '/bringup_test' for n in nodes)
+    finally:
+        for n in nodes:
+            n.destroy_node()
+
+
+def test_bringup_executable_moves_the_arm_and_answers_ik(ros_ctx, spinner, processes):
+    """bringup: a goal ends SUCCEEDED within 2 mrad; an IK request is answered; SIGINT stops."""
+    proc = start_node(processes, 'bringup', 'path_tolerance:=2.0', 'path_window:=1.0',
+                      'goal_time_tolerance:=10.0', 'state_timeout:=3.0')
+    client = spinner.add(TrajectoryClient(context=ros_ctx))
+    ik = spinner.add(IkClient('test_bringup_ik_client', context=ros_ctx))
+    assert wait_for(lambda: client.measured() is not None, STARTUP_TIMEOUT), proc.output()
+    assert wait_for(lambda: client.pub.get_subscription_count() > 0, STARTUP_TIMEOUT)
+    assert wait_for(ik.ready, STARTUP_TIMEOUT)
+    time.sleep(1.0)
+    target = [0.4, -0.6, 0.6, 0.2]
+    stamp = client.send(ARM, [(1.5, target)])
+    assert client.wait_terminal(stamp, 30.0) == 'SUCCEEDED', client.last_diagnostic(stamp)
+    q = client.measured()
+    assert max(abs(q[j] - v) for j, v in zip(ARM, target)) <= 0.002
+    T = MODEL.fk(np.array(target))
+    sol, status = ik.reply(ik.request(matrix_to_pose(T)))
+    assert status.level == b'\x00'
+    np.testing.assert_allclose(MODEL.fk(np.array(sol.position))[:3, 3], T[:3, 3], atol=1e-9)
+    assert proc.stop() == 0 and not proc.killed
