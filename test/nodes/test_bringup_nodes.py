@@ -51,3 +51,23 @@ def test_bringup_executable_moves_the_arm_and_answers_ik(ros_ctx, spinner, proce
     assert status.level == b'\x00'
     np.testing.assert_allclose(MODEL.fk(np.array(sol.position))[:3, 3], T[:3, 3], atol=1e-9)
     assert proc.stop() == 0 and not proc.killed
+
+
+def test_params_file_blocks_are_accepted_by_the_nodes(ros_ctx):
+    """config/px100.yaml's ik_service and trajectory_server blocks load into the real nodes."""
+    import yaml
+    from rclpy.parameter import Parameter
+    from px100_control.paths import data_path
+    from px100_control.ros.ik_service_node import IkServiceNode
+    from px100_control.ros.trajectory_server_node import TrajectoryServerNode
+    with open(data_path('config', 'px100.yaml')) as f:
+        params = yaml.safe_load(f)
+    for cls, block in ((IkServiceNode, 'ik_service'), (TrajectoryServerNode, 'trajectory_server')):
+        values = params['/**/' + block]['ros__parameters']
+        node = cls(context=ros_ctx, namespace='/params_test',
+                   parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
+        try:
+            for key, value in values.items():
+                assert node.get_parameter(key).value == value, (block, key)
+        finally:
+            node.destroy_node()
