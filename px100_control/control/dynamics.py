@@ -232,6 +232,41 @@ class ChainDynamics:
         F = c['U'] @ f
         return (J * F).sum(axis=1)
 
+    def displacement_lists(self, q: Sequence[float]):
+        """
+        Return (R, p) of e^[S1]q1 ... e^[Sn]qn as a 3x3 row tuple and a 3-tuple (plain floats).
+
+        The pose of anything on the last body is this times its pose at q = 0 (e.g. the
+        end-effector: times M). Same Rodrigues products as :meth:`evaluate_lists`.
+        """
+        sin, cos = math.sin, math.cos
+        R00, R01, R02, R10, R11, R12, R20, R21, R22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+        p0 = p1 = p2 = 0.0
+        for k, joint in enumerate(self._cache['joints']):
+            (wx, wy, wz), (vx, vy, vz), Wv, W2v, ww = joint[:5]
+            qk = q[k]
+            s, co = (0.0, 1.0) if joint[9] else (sin(qk), cos(qk))
+            oc, qs = 1.0 - co, qk - s
+            E00, E11, E22 = co + oc * ww[0], co + oc * ww[1], co + oc * ww[2]
+            a, b = oc * ww[3], s * wz
+            E01, E10 = a - b, a + b
+            a, b = oc * ww[4], s * wy
+            E02, E20 = a + b, a - b
+            a, b = oc * ww[5], s * wx
+            E12, E21 = a - b, a + b
+            e0 = qk * vx + oc * Wv[0] + qs * W2v[0]
+            e1 = qk * vy + oc * Wv[1] + qs * W2v[1]
+            e2 = qk * vz + oc * Wv[2] + qs * W2v[2]
+            p0, p1, p2 = (R00 * e0 + R01 * e1 + R02 * e2 + p0, R10 * e0 + R11 * e1 + R12 * e2 + p1,
+                          R20 * e0 + R21 * e1 + R22 * e2 + p2)
+            R00, R01, R02, R10, R11, R12, R20, R21, R22 = (
+                R00 * E00 + R01 * E10 + R02 * E20, R00 * E01 + R01 * E11 + R02 * E21,
+                R00 * E02 + R01 * E12 + R02 * E22, R10 * E00 + R11 * E10 + R12 * E20,
+                R10 * E01 + R11 * E11 + R12 * E21, R10 * E02 + R11 * E12 + R12 * E22,
+                R20 * E00 + R21 * E10 + R22 * E20, R20 * E01 + R21 * E11 + R22 * E21,
+                R20 * E02 + R21 * E12 + R22 * E22)
+        return ((R00, R01, R02), (R10, R11, R12), (R20, R21, R22)), (p0, p1, p2)
+
     def evaluate_lists(self, q: Sequence[float], qd: Sequence[float]):
         """
         Return (M, h) as plain lists: the scalar fast path of :meth:`evaluate`.

@@ -184,9 +184,9 @@ def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
     return cmd
 
 
-def _solve_spd(A: List[List[float]], b: List[float]) -> List[float]:
-    """Return x with A x = b for a small symmetric positive definite A (Cholesky, lists)."""
-    n = len(b)
+def _cholesky(A: List[List[float]]) -> List[List[float]]:
+    """Return the lower Cholesky factor L (A = L L^T) of a small SPD matrix, as lists."""
+    n = len(A)
     L = [[0.0] * n for _ in range(n)]
     for i in range(n):
         Li = L[i]
@@ -201,6 +201,12 @@ def _solve_spd(A: List[List[float]], b: List[float]) -> List[float]:
                 Li[i] = math.sqrt(s)
             else:
                 Li[j] = s / Lj[j]
+    return L
+
+
+def _cholesky_solve(L: List[List[float]], b: List[float]) -> List[float]:
+    """Return x with L L^T x = b (forward and back substitution on lists)."""
+    n = len(b)
     y = [0.0] * n
     for i in range(n):
         s = b[i]
@@ -215,6 +221,32 @@ def _solve_spd(A: List[List[float]], b: List[float]) -> List[float]:
             s -= L[k][i] * x[k]
         x[i] = s / L[i][i]
     return x
+
+
+def _solve_spd(A: List[List[float]], b: List[float]) -> List[float]:
+    """Return x with A x = b for a small symmetric positive definite A (Cholesky, lists)."""
+    return _cholesky_solve(_cholesky(A), b)
+
+
+def _quaternion_xyzw(R) -> Tuple[float, float, float, float]:
+    """Return the unit quaternion (x, y, z, w), w >= 0, of a 3x3 rotation given as lists."""
+    tr = R[0][0] + R[1][1] + R[2][2]
+    if tr > 0.0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        q = ((R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s, 0.25 * s)
+    elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
+        s = 2.0 * math.sqrt(1.0 + R[0][0] - R[1][1] - R[2][2])
+        q = (0.25 * s, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s, (R[2][1] - R[1][2]) / s)
+    elif R[1][1] > R[2][2]:
+        s = 2.0 * math.sqrt(1.0 + R[1][1] - R[0][0] - R[2][2])
+        q = ((R[0][1] + R[1][0]) / s, 0.25 * s, (R[1][2] + R[2][1]) / s, (R[0][2] - R[2][0]) / s)
+    else:
+        s = 2.0 * math.sqrt(1.0 + R[2][2] - R[0][0] - R[1][1])
+        q = ((R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, 0.25 * s, (R[1][0] - R[0][1]) / s)
+    if q[3] < 0.0:
+        q = tuple(-x for x in q)
+    norm = math.sqrt(sum(x * x for x in q))
+    return tuple(x / norm for x in q)
 
 
 def _urdf_joint_dynamics(urdf_xml: Optional[str]) -> Dict[str, Tuple[float, float]]:
@@ -296,8 +328,8 @@ class ArmSimulator:
         self.dynamics: ChainDynamics = dynamics_for_model(
             model, [s.armature for s in self.servos], fixed_values=fixed)
         jd = _urdf_joint_dynamics(model.urdf_xml)
-        self.damping = [jd.get(nm, (config.default_damping, 0.0))[0] for nm in self.names]
-        self.friction = [jd.get(nm, (0.0, config.default_friction))[1] for nm in self.names]
+        self._damping = [jd.get(nm, (config.default_damping, 0.0))[0] for nm in self.names]
+        self._friction = [jd.get(nm, (0.0, config.default_friction))[1] for nm in self.names]
         self.lower = [float(x) for x in model.lower]
         self.upper = [float(x) for x in model.upper]
         self.vel_limit = [min(float(v), s.velocity_limit) if math.isfinite(v) and v > 0
@@ -319,11 +351,34 @@ class ArmSimulator:
             self.gripper_pid = Pid(gains.get(self.gripper_name, default_gains('gripper')))
             self.gripper_lower = self.linkage.angle_lower
             self.gripper_upper = self.linkage.angle_upper
+        M = np.asarray(model.M, dtype=float)
+        self._ee_home = (M[:3, :3].tolist(), M[:3, 3].tolist())
         self.object_width = 0.0
         self.set_object_width(config.object_width)
         self.time = 0.0
         self.torque_enabled = True
         self.reset()
+
+    # --- joint losses (URDF <dynamics>) ---------------------------------------------------------
+    @property
+    def damping(self) -> List[float]:
+        """Return the viscous damping per arm joint [N*m*s/rad]."""
+        return list(self._damping)
+
+    @damping.setter
+    def damping(self, values) -> None:
+        self._damping = [float(v) for v in values]
+        self._factor = None
+
+    @property
+    def friction(self) -> List[float]:
+        """Return the Coulomb friction per arm joint [N*m]."""
+        return list(self._friction)
+
+    @friction.setter
+    def friction(self, values) -> None:
+        self._friction = [float(v) for v in values]
+        self._factor = None
 
     # --- commands ------------------------------------------------------------------------------
     @property
@@ -375,6 +430,7 @@ class ArmSimulator:
                        for pid, g in zip(self.pids, gravity)]
         self._M = None
         self._h = None
+        self._factor = None
 
     def set_torque_enabled(self, enabled: bool) -> None:
         """
@@ -489,49 +545,61 @@ class ArmSimulator:
         dt = self.dt
         n = self.n
         q, qd = self.q, self.qd
+        on = self.torque_enabled
         if self._step_count % self.config.dynamics_divider == 0 or self._M is None:
             self._M, self._h = self.dynamics.evaluate_lists(q, qd)
+            self._factor = None
         self._step_count += 1
-        M, h = self._M, self._h
-        on = self.torque_enabled
+        factor = self._factor
+        if factor is None or factor[0] != on or factor[1] != dt:
+            # iteration matrix M + dt B (B: URDF damping + back-EMF while torque is on),
+            # factored once per dynamics refresh
+            damp = [self._damping[i] + (self.servos[i].back_emf_damping if on else 0.0)
+                    for i in range(n)]
+            A = [row[:] for row in self._M]
+            for i in range(n):
+                A[i][i] += dt * damp[i]
+            fric = [dt * self._friction[i] / A[i][i] for i in range(n)]
+            factor = self._factor = (on, dt, damp, _cholesky(A), fric)
+        damp, L, fric = factor[2], factor[3], factor[4]
+        h = self._h
         t = self.time
         drive = [0.0] * n
-        damp = [0.0] * n
         rhs = [0.0] * n
-        A = [row[:] for row in M]
-        for i in range(n):
-            servo = self.servos[i]
-            b = self.damping[i]
-            if on:
-                v_ref = self.qd_ref[i] if t < self.ff_until[i] else 0.0
-                u = self.pids[i].step(self.q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
-                stall = servo.stall_torque
+        if on:
+            pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
+            for i in range(n):
+                v_ref = qd_ref[i] if t < ff_until[i] else 0.0
+                u = pids[i].step(q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
+                servo = self.servos[i]
+                stall, lim = servo.stall_torque, servo.pwm_limit
                 duty = u / stall
-                lim = servo.pwm_limit
                 duty = lim if duty > lim else (-lim if duty < -lim else duty)
-                drive[i] = stall * duty
-                b += servo.back_emf_damping
-            damp[i] = b
-            A[i][i] += dt * b
-            rhs[i] = drive[i] - h[i] - b * qd[i]
-        acc = _solve_spd(A, rhs)
+                drive[i] = d = stall * duty
+                rhs[i] = d - h[i] - damp[i] * qd[i]
+        else:
+            for i in range(n):
+                rhs[i] = -h[i] - damp[i] * qd[i]
+        acc = _cholesky_solve(L, rhs)
         new_q = [0.0] * n
+        effort = self.effort
+        lower, upper, vel_limit, viscous = self.lower, self.upper, self.vel_limit, self._damping
         for i in range(n):
             v = qd[i] + dt * acc[i]
             # Coulomb friction: an impulse up to dt * friction, which may stop the joint
-            dv = dt * self.friction[i] / A[i][i]
+            dv = fric[i]
             v = v - dv if v > dv else (v + dv if v < -dv else 0.0)
             if on:
-                vl = self.vel_limit[i]
+                vl = vel_limit[i]
                 v = vl if v > vl else (-vl if v < -vl else v)
             x = q[i] + dt * v
-            if x < self.lower[i]:
-                x, v = self.lower[i], max(v, 0.0)
-            elif x > self.upper[i]:
-                x, v = self.upper[i], min(v, 0.0)
+            if x < lower[i]:
+                x, v = lower[i], max(v, 0.0)
+            elif x > upper[i]:
+                x, v = upper[i], min(v, 0.0)
             new_q[i] = x
             qd[i] = v
-            self.effort[i] = drive[i] - (damp[i] - self.damping[i]) * v if on else 0.0
+            effort[i] = drive[i] - (damp[i] - viscous[i]) * v if on else 0.0
         self.q = new_q
         if self.gripper_name:
             self._step_gripper(dt, on)
@@ -600,6 +668,19 @@ class ArmSimulator:
     def ee_pose(self) -> np.ndarray:
         """Return the (4, 4) end-effector pose of the measured arm joints in the base frame."""
         return self.model.fk(self.q)
+
+    def ee_pose_quaternion(self) -> Tuple[Tuple[float, ...], Tuple[float, ...]]:
+        """
+        Return the end-effector pose as (position (x, y, z) [m], quaternion (x, y, z, w)).
+
+        Same pose as :meth:`ee_pose` (base frame), in plain floats for publishing at rate.
+        """
+        R, p = self.dynamics.displacement_lists(self.q)
+        M = self._ee_home
+        Rm, pm = M[0], M[1]
+        Rt = [[sum(R[i][k] * Rm[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+        pos = tuple(sum(R[i][k] * pm[k] for k in range(3)) + p[i] for i in range(3))
+        return pos, _quaternion_xyzw(Rt)
 
     def positions(self) -> np.ndarray:
         """Return the measured arm joint values as an (n,) array [rad or m]."""

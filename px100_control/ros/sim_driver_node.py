@@ -36,6 +36,7 @@ import threading
 import time
 from typing import List, Optional
 
+from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from px100_control.control.pid import GAIN_FIELDS, PidGains
@@ -44,34 +45,33 @@ from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
                                       robot_name, robot_topic, spin_node)
-from px100_control.ros.conversions import matrix_to_pose
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
-from rclpy.time import Time
 from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 
 #: physics chunk timer in clock-master mode [Hz]
-TICK_RATE = 200.0
+TICK_RATE = 100.0
 #: below this publish_rate [Hz] an extra timer advances the physics in follow-clock mode
 #: (setpoints and service calls also catch the physics up to "now" before they apply)
 FOLLOW_TICK_RATE = 20.0
 #: most simulated time one chunk may integrate before the driver drops time [s]
 MAX_CHUNK = 0.5
 #: wall-time budget of one chunk in clock-master mode [s]
-CHUNK_BUDGET = 0.004
+CHUNK_BUDGET = 0.008
 
 _CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
                 'clock_rate', 'dynamics_divider', 'object_width', 'gains_units')
 
 
-def _time_msg(ns: int):
-    return Time(nanoseconds=int(ns)).to_msg()
+def _time_msg(ns: int) -> TimeMsg:
+    sec, nanosec = divmod(int(ns), 1_000_000_000)
+    return TimeMsg(sec=sec, nanosec=nanosec)
 
 
 class SimDriverNode(Node):
@@ -395,14 +395,19 @@ class SimDriverNode(Node):
         js = JointState()
         js.header.stamp = stamp
         js.name = self._names
-        js.position = [float(x) for x in sample.position]
-        js.velocity = [float(x) for x in sample.velocity]
-        js.effort = [float(x) for x in sample.effort]
+        js.position = sample.position
+        js.velocity = sample.velocity
+        js.effort = sample.effort
         self.pub_js.publish(js)
+        if not self.pub_ee.get_subscription_count():
+            return          # forward kinematics only when someone listens
         pose = PoseStamped()
         pose.header.stamp = stamp
         pose.header.frame_id = self._base_frame
-        pose.pose = matrix_to_pose(self.sim.ee_pose())
+        (x, y, z), (qx, qy, qz, qw) = self.sim.ee_pose_quaternion()
+        p, o = pose.pose.position, pose.pose.orientation
+        p.x, p.y, p.z = x, y, z
+        o.x, o.y, o.z, o.w = qx, qy, qz, qw
         self.pub_ee.publish(pose)
 
     def _publish_description(self) -> None:

@@ -249,6 +249,39 @@ def test_fast_mode_publishes_sim_clock(spin_node, rclpy_context):
     assert js_stamp < 1e5 and abs(js_stamp - clocks[-1]) < 1.0
 
 
+def test_follows_an_external_clock_with_use_sim_time(spin_node, rclpy_context):
+    """use_sim_time: the driver integrates exactly the /clock time it is given, stamps with it."""
+    from rclpy.qos import QoSProfile
+    driver = SimDriverNode(context=rclpy_context, parameter_overrides=[
+        Parameter('use_sim_time', value=True)])
+    probe = Probe(rclpy_context, light=True)
+    clock_pub = probe.node.create_publisher(Clock, '/clock', QoSProfile(depth=10))
+    spin_node(driver, probe.node)
+    sim_t = 100.0
+
+    def tick(seconds):
+        nonlocal sim_t
+        for _ in range(int(round(seconds / 0.005))):
+            sim_t += 0.005
+            sec = int(sim_t)
+            clock_pub.publish(Clock(clock=rclpy.time.Time(
+                seconds=sec, nanoseconds=int(round((sim_t - sec) * 1e9))).to_msg()))
+            time.sleep(0.002)          # 2.5x faster than the wall clock
+
+    tick(1.0)
+    probe.wait(lambda: probe.js and stamp_s(probe.js[-1][1]) > 100.5, timeout=30,
+               what='joint_states on the external clock')
+    driver_t0 = driver.sim_time_ns() * 1e-9
+    tick(1.0)
+    probe.wait(lambda: stamp_s(probe.js[-1][1]) > 101.9, timeout=30, what='1 s more')
+    time.sleep(0.3)            # the clock is now frozen: nothing more may be integrated
+    with driver._lock:
+        advanced = driver.sim_time_ns() * 1e-9 - driver_t0
+    assert advanced == pytest.approx(1.0, abs=0.02)
+    js_stamp = stamp_s(probe.last_js())
+    assert 101.9 < js_stamp <= sim_t + 1e-6
+
+
 @pytest.mark.parametrize('rtf, expect_fast', [(0.0, True), (float('inf'), True), (1.0, False),
                                               (3.0, False)])
 def test_own_clock_is_not_tied_to_the_wall(rclpy_context, monkeypatch, rtf, expect_fast):

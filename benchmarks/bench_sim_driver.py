@@ -1,0 +1,212 @@
+"""
+sim_driver speed and timing: simulated seconds per wall second, and publish-period jitter.
+
+- ``physics``: ArmSimulator alone (all PX100 joints + gripper, 1 kHz, the arm moving between
+  poses): microseconds per step and simulated seconds per CPU second, exact dynamics
+  (``dynamics_divider`` 1) and the node default (4);
+- ``unthrottled``: the installed ``sim_driver`` process with ``real_time_factor:=0`` (publishing
+  joint_states/ee_pose at 100 Hz and /clock at 250 Hz of simulated time): simulated seconds per
+  wall second read from /clock, and the process's CPU share over the window;
+- ``jitter``: the ``sim_driver`` process at real time, ``publish_rate`` 100 Hz: period of
+  joint_states as received here (monotonic clock at the callback) and as stamped by the driver,
+  |period - 10 ms| p50 / p99 / max.
+
+The machine's load average is recorded with the figures: on a shared 2-core machine they vary
+with what else runs. Writes ``benchmarks/results/sim_driver.json``. Usage (venv + install
+sourced, e.g. ``source scripts/env.sh``): ``python benchmarks/bench_sim_driver.py [--quick]``.
+"""
+import argparse
+import json
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'sim_driver.json')
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.pop('ROS_LOCALHOST_ONLY', None)
+
+POSES = ([0.8, 0.3, -0.4, 0.6], [-0.8, -0.6, 0.5, -0.4])
+
+
+def _cpu_seconds(pid: int) -> float:
+    """Return user + system CPU seconds of a process (from /proc)."""
+    with open(f'/proc/{pid}/stat') as f:
+        fields = f.read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def bench_physics(seconds: float) -> dict:
+    """Return per-step cost of the pure simulator, exact and default dynamics."""
+    from px100_control.control.simulator import ArmSimulator, SimConfig
+    from px100_control.models.registry import load_robot
+    model = load_robot('px100')
+    out = {}
+    for div in (1, 4):
+        sim = ArmSimulator(model, SimConfig(dynamics_divider=div))
+        steps = int(seconds * 1000)
+        cpu0, wall0 = time.process_time(), time.perf_counter()
+        for k in range(steps):
+            if k % 1500 == 0:
+                sim.command(list(model.joint_names), POSES[(k // 1500) % 2])
+                sim.command(['gripper'], effort=[0.4 if (k // 1500) % 2 else -0.4])
+            sim.step()
+        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+        out[f'divider_{div}'] = {
+            'us_per_step_cpu': round(cpu / steps * 1e6, 1),
+            'sim_s_per_cpu_s': round(steps * 1e-3 / cpu, 2),
+            'sim_s_per_wall_s': round(steps * 1e-3 / wall, 2),
+        }
+    return out
+
+
+class _Listener:
+    """Records /clock and joint_states arrivals in this process."""
+
+    def __init__(self):
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = rclpy.create_node('bench_sim_driver', context=self.ctx)
+        self.clock, self.js = [], []
+        self.node.create_subscription(Clock, '/clock', self._on_clock, 1000)
+        self.node.create_subscription(JointState, '/px100/joint_states', self._on_js, 1000)
+        self.executor = SingleThreadedExecutor(context=self.ctx)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def _on_clock(self, msg):
+        self.clock.append((time.monotonic(), msg.clock.sec + msg.clock.nanosec * 1e-9))
+
+    def _on_js(self, msg):
+        self.js.append((time.monotonic(),
+                        msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9))
+
+    def wait(self, store, count, timeout):
+        deadline = time.monotonic() + timeout
+        while len(store) < count and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return len(store) >= count
+
+    def close(self):
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self.ctx.try_shutdown()
+        self.thread.join(5.0)
+
+
+def _window(store, seconds):
+    n0 = len(store)
+    time.sleep(seconds)
+    return list(store[n0:])
+
+
+def bench_unthrottled(seconds: float, divider: int) -> dict:
+    """Return simulated s per wall s of the sim_driver process at real_time_factor 0."""
+    from px100_control.tools.processes import NodeProcess
+    listener = _Listener()
+    proc = NodeProcess('sim_driver', ['--ros-args', '-p', 'real_time_factor:=0.0',
+                                      '-p', f'dynamics_divider:={divider}'])
+    try:
+        if not listener.wait(listener.clock, 50, 60.0):
+            return {'error': 'no /clock from sim_driver', 'log': proc.output()[-2000:]}
+        cpu0 = _cpu_seconds(proc.pid)
+        samples = _window(listener.clock, seconds)
+        cpu1 = _cpu_seconds(proc.pid)
+        wall = samples[-1][0] - samples[0][0]
+        sim = samples[-1][1] - samples[0][1]
+        return {'sim_s_per_wall_s': round(sim / wall, 2),
+                'driver_cpu_share': round((cpu1 - cpu0) / seconds, 2),
+                'sim_s_per_driver_cpu_s': round(sim / max(cpu1 - cpu0, 1e-9), 2),
+                'window_s': seconds}
+    finally:
+        proc.stop()
+        listener.close()
+
+
+def bench_jitter(seconds: float) -> dict:
+    """Return joint_states period jitter at 100 Hz, real time, received and stamped."""
+    from px100_control.tools.processes import NodeProcess
+    listener = _Listener()
+    proc = NodeProcess('sim_driver', ['--ros-args', '-p', 'publish_rate:=100.0'])
+    try:
+        if not listener.wait(listener.js, 50, 60.0):
+            return {'error': 'no joint_states from sim_driver', 'log': proc.output()[-2000:]}
+        samples = _window(listener.js, seconds)
+        out = {'messages': len(samples), 'window_s': seconds,
+               'rate_hz': round((len(samples) - 1) / (samples[-1][1] - samples[0][1]), 3)}
+        for key, col in (('received', 0), ('stamped', 1)):
+            dev = np.abs(np.diff([s[col] for s in samples]) - 0.01) * 1e3
+            out[key] = {'p50_ms': round(float(np.percentile(dev, 50)), 3),
+                        'p99_ms': round(float(np.percentile(dev, 99)), 3),
+                        'max_ms': round(float(dev.max()), 3)}
+        return out
+    finally:
+        proc.stop()
+        listener.close()
+
+
+def run(quick: bool = False, log=print) -> dict:
+    """Run the three measurements; return the figures."""
+    load0 = os.getloadavg()[0]
+    figures = {'physics': bench_physics(3.0 if quick else 15.0)}
+    log(f"physics: {figures['physics']}")
+    figures['unthrottled'] = {f'divider_{d}': bench_unthrottled(3.0 if quick else 10.0, d)
+                              for d in (4, 1)}
+    log(f"unthrottled node: {figures['unthrottled']}")
+    figures['jitter_100hz'] = bench_jitter(5.0 if quick else 20.0)
+    log(f"jitter at 100 Hz: {figures['jitter_100hz']}")
+    figures['load_average_1min'] = [round(load0, 2), round(os.getloadavg()[0], 2)]
+    figures['cpu_count'] = os.cpu_count()
+    figures['quick'] = quick
+    phys = figures['physics']
+    un4 = figures['unthrottled']['divider_4'].get('sim_s_per_wall_s')
+    un1 = figures['unthrottled']['divider_1'].get('sim_s_per_wall_s')
+    eff4 = figures['unthrottled']['divider_4'].get('sim_s_per_driver_cpu_s')
+    rec = figures['jitter_100hz'].get('received', {})
+    stp = figures['jitter_100hz'].get('stamped', {})
+    exact, default = phys['divider_1'], phys['divider_4']
+    figures['markdown'] = '\n'.join([
+        '| sim_driver | value |', '| --- | --- |',
+        '| physics, µs per 1 kHz step (exact / default divider 4) | '
+        f'{exact["us_per_step_cpu"]} / {default["us_per_step_cpu"]} |',
+        '| physics, simulated s per CPU s (exact / default) | '
+        f'{exact["sim_s_per_cpu_s"]} / {default["sim_s_per_cpu_s"]} |',
+        f'| unthrottled node, simulated s per wall s (divider 4 / 1) | {un4} / {un1} |',
+        f'| unthrottled node, simulated s per driver CPU s (divider 4) | {eff4} |',
+        '| joint_states 100 Hz, received period jitter p50 / p99 [ms] | '
+        f'{rec.get("p50_ms")} / {rec.get("p99_ms")} |',
+        '| joint_states 100 Hz, stamped period jitter p50 / p99 [ms] | '
+        f'{stp.get("p50_ms")} / {stp.get("p99_ms")} |',
+        f'| load average (start, end) on {os.cpu_count()} cores | '
+        f'{figures["load_average_1min"]} |',
+    ])
+    return figures
+
+
+def main(argv=None) -> int:
+    """Run the benchmark, print the figures and write benchmarks/results/sim_driver.json."""
+    parser = argparse.ArgumentParser(description='sim_driver speed and publish jitter')
+    parser.add_argument('--quick', action='store_true', help='short windows')
+    args = parser.parse_args(argv)
+    figures = run(args.quick)
+    print(figures['markdown'])
+    os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
+    with open(RESULTS, 'w') as f:
+        json.dump({k: v for k, v in figures.items() if k != 'markdown'}, f, indent=2)
+    print(f'wrote {RESULTS}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
