@@ -1,11 +1,11 @@
 """
 The simulated driver works for other robot models: their joints, limits and approximate dynamics.
 
-Pure part: the ArmSimulator of the heaviest robot (every robot with PX100_STRESS=full; dynamics from the generated URDF's approximate inertials, see
-models/urdf_writer.py) holds the sleep pose and drives the arm to home and to a random in-limit
-pose. ROS part: SimDriverNode with ``robot_model:=<name>``
-publishes the model's URDF on ``robot_description`` (FK computed from it equals the model's),
-``joint_states`` with the model's joints, and ``ee_pose`` = FK(joint_states).
+Pure part: the ArmSimulator of the heaviest robot (every robot with PX100_STRESS=full; dynamics
+from the generated URDF's approximate inertials, see models/urdf_writer.py) holds the sleep pose
+and drives the arm to home and to a random in-limit pose. ROS part: SimDriverNode with
+``robot_model:=<name>`` publishes the model's URDF on ``robot_description`` (FK computed from it
+equals the model's), ``joint_states`` with the model's joints, and ``ee_pose`` = FK(joint_states).
 """
 import os
 import threading
