@@ -126,7 +126,7 @@ def _load(graph, probe, quick: bool, log) -> dict:
     log('load: 4 client scripts in turn with a recorder')
     out['scripts_with_recorder'] = sc.scripts_with_recorder(
         graph, probe, tempfile.mkdtemp(prefix='px100_load_bag_') + '/bag', scripts=4,
-        moves=3 if quick else 10)
+        moves=2 if quick else 10)
     return out
 
 

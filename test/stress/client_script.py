@@ -18,6 +18,8 @@ def main(argv=None) -> int:
     parser.add_argument('--index', type=int, default=0)
     parser.add_argument('--moves', type=int, default=4)
     parser.add_argument('--moving-time', type=float, default=0.6)
+    parser.add_argument('--wait-subscribers', type=int, default=0,
+                        help='diagnosis only: wait until this many nodes subscribe to the goals')
     opts = parser.parse_args(argv)
 
     import numpy as np
@@ -30,6 +32,11 @@ def main(argv=None) -> int:
                                   connect_timeout=30.0)
     robot_startup()
     connect_s = time.monotonic() - t0
+    deadline = time.monotonic() + 20.0
+    while bot.core.pub_goal.get_subscription_count() < opts.wait_subscribers and \
+            time.monotonic() < deadline:
+        time.sleep(0.02)
+    waited_s = time.monotonic() - t0 - connect_s
     rng = np.random.default_rng(opts.index)
     ok, goals, failures = 0, [], []
     # from wherever the last script left the arm: home first (sleep -> home takes a while)
@@ -60,6 +67,7 @@ def main(argv=None) -> int:
                       'tracking_aborts': sum('tracking error' in f or 'did not settle' in f
                                              for f in failures),
                       'goals': goals, 'failures': failures, 'connect_s': connect_s,
+                      'waited_for_subscribers_s': waited_s,
                       'seconds': time.monotonic() - t0}), flush=True)
     return 0 if ok == opts.moves else 1
 

@@ -6,6 +6,8 @@ Every test here carries the ``stress`` marker. Sizes: the reduced form by defaul
 """
 import pytest
 
+NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+
 
 def pytest_collection_modifyitems(config, items):
     """Mark every test of this directory ``stress`` (and ``ros``)."""
@@ -29,13 +31,13 @@ def limits(model):
     return Limits.from_model(model)
 
 
-@pytest.fixture(scope='module')
-def module_processes():
+@pytest.fixture(scope='session')
+def stress_processes():
     """
-    Return a factory like ``node_process`` whose processes live for the whole module.
+    Return a factory like ``node_process`` whose processes live for the whole stress session.
 
     At teardown every process still running is stopped with SIGINT; one that had to be killed
-    fails the module.
+    fails the session.
     """
     from px100_control.tools.processes import NodeProcess
     procs = []
@@ -54,19 +56,36 @@ def module_processes():
     assert not killed, f'processes ignored SIGINT and were killed: {killed}'
 
 
-@pytest.fixture
-def probe(limits):
-    """Yield a fresh Probe node (own context); closed afterwards."""
-    from .harness import Probe
-    p = Probe(limits)
+@pytest.fixture(scope='session')
+def stress_probe():
+    """Yield one Probe (the test's own node, own context) for the whole stress session."""
+    from px100_control.models.registry import load_robot
+
+    from .harness import Limits, Probe
+    p = Probe(Limits.from_model(load_robot('px100')))
     yield p
     p.close()
+
+
+@pytest.fixture(scope='session')
+def stress_graph(stress_processes, stress_probe):
+    """Start sim_driver, ik_service and trajectory_server once for every stress module."""
+    from .harness import Graph
+    g = Graph(stress_processes)
+    for n in NODES:
+        g.start(n)
+    stress_probe.wait_ready(NODES, timeout=60.0)
+    return g
 
 
 @pytest.fixture(scope='module')
-def module_probe(limits):
-    """Yield one Probe for the whole module."""
-    from .harness import Probe
-    p = Probe(limits)
-    yield p
-    p.close()
+def module_probe(stress_probe):
+    """Return the session's probe."""
+    return stress_probe
+
+
+@pytest.fixture(scope='module')
+def graph(stress_graph, stress_probe):
+    """Return the session's graph with every node running (dead ones restarted, recorded)."""
+    stress_graph.revive(stress_probe, cause='dead at the start of a stress module')
+    return stress_graph

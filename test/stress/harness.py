@@ -538,6 +538,8 @@ class Campaign:
     seconds: float = 0.0
     send_seconds: float = 0.0
     slowest: list = field(default_factory=list)
+    #: the inputs during whose handling joint_states went silent longest: (gap s, input)
+    stalls: list = field(default_factory=list)
     rates: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
@@ -546,7 +548,8 @@ class Campaign:
                 'unanswered': len(self.unanswered), 'unanswered_examples':
                 self.unanswered[:5], 'failures': self.failures[:5], 'seconds':
                 round(self.seconds, 2), 'send_seconds': round(self.send_seconds, 2),
-                'slowest_answers': self.slowest, 'rates': self.rates}
+                'slowest_answers': self.slowest, 'worst_stalls': self.stalls,
+                'rates': self.rates}
 
 
 class FuzzFailure(AssertionError):
@@ -583,6 +586,11 @@ def fuzz(strategy, send: Callable, count: int, graph: Graph, probe: Probe, targe
             camp.slowest.append((round(dt, 3), short(msg, 300)))
             camp.slowest.sort(key=lambda x: -x[0])
             del camp.slowest[3:]
+        gap = probe.rates['joint_states'].stats(ts, time.monotonic())['max_gap']
+        if gap > 0.2 and (len(camp.stalls) < 3 or gap > camp.stalls[-1][0]):
+            camp.stalls.append((round(gap, 3), short(msg, 300)))
+            camp.stalls.sort(key=lambda x: -x[0])
+            del camp.stalls[3:]
         if answered:
             camp.answered += 1
         elif answered is not None:

@@ -30,7 +30,7 @@ _probe_counter = [0]
 #: reduced-form sizes per target (PX100_STRESS=full: 10,000 each)
 REDUCED = {
     'commands/joint_setpoints': 200, 'torque_enable': 100, 'reset': 60,
-    'ik/request': 300, 'ik/path_request': 150, 'trajectory/goal': 150,
+    'ik/request': 300, 'ik/path_request': 150, 'trajectory/goal': 100,
     'trajectory/cancel': 200, '/sim_driver/set_parameters': 80,
     '/ik_service/set_parameters': 60, '/trajectory_server/set_parameters': 60,
 }

@@ -13,11 +13,9 @@ import signal
 
 import pytest
 
-from .harness import Graph
 from .scenarios import (kill_driver_mid_trajectory, kill_ik_service, recorder_sigkill,
                         slow_subscriber)
 
-NODES = ('sim_driver', 'ik_service', 'trajectory_server')
 #: the issue's bound for "the goal is ABORTED and the client call fails" [s]
 FAIL_BOUND = 2.0
 #: bound for an IK call to a dead ik_service [s] (the client's IK timeout plus margin)
@@ -28,16 +26,6 @@ MAX_GAP = 1.0
 #: most recorded time a SIGKILL may lose [s]: the recorder's 1 s flush period plus margin
 LOST_TAIL_BOUND = 2.0
 FIGURES = {}
-
-
-@pytest.fixture(scope='module')
-def graph(module_processes, module_probe):
-    """Start the three nodes as processes."""
-    g = Graph(module_processes)
-    for n in NODES:
-        g.start(n)
-    module_probe.wait_ready(NODES, timeout=30.0)
-    return g
 
 
 @pytest.fixture(scope='module')

@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from .harness import full_mode, fuzz, Graph, stress_size
+from .harness import full_mode, fuzz, stress_size
 from .targets import driver_works, goal_works, ik_works, make_targets, REDUCED, SLEEP
 
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
@@ -24,23 +24,12 @@ NODES = ('sim_driver', 'ik_service', 'trajectory_server')
 #: not scheduler noise: during the campaign no silence above MAX_GAP and at least FLOOR Hz;
 #: afterwards at least RECOVER x the baseline (a node permanently slowed by an input).
 RATE_TOPICS = ('joint_states', 'ee_pose')
+NOMINAL = 100.0
 MAX_GAP = 1.0
 FLOOR = 25.0
 RECOVER = 0.6
 WINDOW = 1.0
 FIGURES = {}
-
-
-@pytest.fixture(scope='module')
-def graph(module_processes, module_probe):
-    """Start the three nodes as processes and wait until the probe sees them."""
-    g = Graph(module_processes)
-    for n in NODES:
-        g.start(n)
-    module_probe.wait_ready(NODES, timeout=30.0)
-    yield g
-    dead = g.dead()
-    assert not dead, f'nodes dead at the end of the module: {dead}; deaths: {g.deaths}'
 
 
 @pytest.fixture(scope='module')
@@ -88,10 +77,12 @@ def test_fuzz_target(name, graph, targets, module_probe, limits, model):
         # a valid parameter (publish_rate: 1 Hz...) may slow a node on purpose: for parameter
         # targets only the rate after the restore counts
         if not name.endswith('set_parameters'):
-            assert during['max_gap'] <= MAX_GAP, f'{topic} stalled during the campaign: {during}'
+            assert during['max_gap'] <= MAX_GAP, \
+                f'{topic} stalled during the campaign: {during}; worst stalls: {camp.stalls}'
             assert during['rate'] >= FLOOR, f'{topic} choked during the campaign: {during}'
         assert after[topic]['max_gap'] <= MAX_GAP, f'{topic} stalled afterwards: {after}'
-        assert after[topic]['rate'] >= RECOVER * before[topic]['rate'], \
+        baseline = min(before[topic]['rate'], NOMINAL)  # a catch-up burst can exceed nominal
+        assert after[topic]['rate'] >= RECOVER * baseline, \
             f'{topic} slower after the campaign: before {before[topic]}, after {after[topic]}'
     assert not camp.unanswered, \
         f'{len(camp.unanswered)} of {camp.tried} inputs got no answer (slowest answers: ' \

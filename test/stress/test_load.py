@@ -10,21 +10,9 @@ import os
 
 import pytest
 
-from .harness import Graph, stress_size
+from .harness import full_mode, stress_size
 from .scenarios import ik_load, scripts_with_recorder
 
-NODES = ('sim_driver', 'ik_service', 'trajectory_server')
-
-
-@pytest.fixture(scope='module')
-def graph(module_processes, module_probe):
-    """Start the three nodes as processes."""
-    g = Graph(module_processes)
-    for n in NODES:
-        g.start(n)
-    module_probe.wait_ready(NODES, timeout=30.0)
-    yield g
-    assert not g.dead(), f'nodes died under load: {g.dead()}'
 
 
 FIGURES = {}
@@ -36,7 +24,7 @@ def _json(fig) -> str:
 
 def test_ik_load_no_lost_or_mismatched_replies(graph):
     """8 clients x N closed-loop IK requests: every reply arrives and answers its request."""
-    fig = ik_load(8, stress_size(100, 1000))
+    fig = ik_load(8, stress_size(100, 1000), processes=full_mode())
     FIGURES['ik_load'] = fig
     assert fig['workers_failed'] == 0, _json(fig)
     assert fig['sent'] == 8 * fig['per_client'], _json(fig)
@@ -48,7 +36,7 @@ def test_ik_load_no_lost_or_mismatched_replies(graph):
 def test_scripts_in_turn_with_recorder(graph, module_probe, tmp_path):
     """4 client scripts drive the arm one after another; the bag has every goal and setpoint."""
     fig = scripts_with_recorder(graph, module_probe, str(tmp_path / 'bag'), scripts=4,
-                                moves=stress_size(3, 10))
+                                moves=stress_size(2, 10))
     FIGURES['scripts_with_recorder'] = fig
     # every script ran and sent its moves; how they ended (SUCCEEDED, or ABORTED by the server
     # for tracking when the simulation is CPU-starved) is reported, not what this test is about
