@@ -39,6 +39,8 @@ from px100_control.client.robot import InterbotixException
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import inv_transform, pose_error
 
+#: simulated seconds trajectory_server may take after a move to settle (its goal_time_tolerance)
+SETTLE_ALLOWANCE = 1.0
 #: IK acceptance tolerances of Interbotix (modern_robotics eomg, ev): [rad], [m]
 EOMG = 1e-3
 EV = 1e-3
@@ -211,9 +213,13 @@ class InterbotixArmXSInterface:
 
     # ----------------------------------------------------------- publishing
     def _deadline(self, duration: float) -> float:
-        """Return the wall-time budget [s] of a move lasting ``duration`` simulated seconds."""
-        wall = duration / self.core.real_time_factor
-        return wall + 2.0 + 0.25 * wall
+        """
+        Return the wall-time budget [s] of a move lasting ``duration`` simulated seconds.
+
+        trajectory_server reports within duration + its settling allowance (1 s by default)
+        of simulated time; the budget adds 25 % and 2 s of wall time for a loaded machine.
+        """
+        return 1.25 * (duration + SETTLE_ALLOWANCE) / self.core.real_time_factor + 2.0
 
     def publish_positions(self, positions: Sequence[float], moving_time: Optional[float] = None,
                           accel_time: Optional[float] = None, blocking: bool = True) -> bool:

@@ -140,12 +140,13 @@ class InterbotixRobotXSCore:
         'interbotix_robot_manipulation', as in Interbotix)
     :param node: (optional) a node to use instead of the global one
     :param args: ignored (as in Interbotix)
-    :param bringup: start sim_driver, ik_service and trajectory_server in this process
-        (default: env ``PX100_BRINGUP``)
+    :param bringup: start sim_driver, ik_service and trajectory_server in this process: True
+        (threads of this process) or 'process' (child processes); default env ``PX100_BRINGUP``
+        (1 / process)
     :param real_time_factor: simulation speed for an in-process bringup (env
         ``PX100_REAL_TIME_FACTOR``, default 1)
     :param connect_timeout: [s] how long to wait for the nodes (env ``PX100_CONNECT_TIMEOUT``,
-        default 10)
+        default 10; 30 when this call starts them)
     :param node_kwargs: extra keyword arguments for the in-process nodes
     """
 
@@ -197,7 +198,8 @@ class InterbotixRobotXSCore:
             self._modes[self.model.gripper.joint] = ('pwm', 'velocity')
 
         if bringup is None:
-            bringup = env_flag('PX100_BRINGUP')
+            env = os.environ.get('PX100_BRINGUP', '').strip().lower()
+            bringup = 'process' if env == 'process' else env_flag('PX100_BRINGUP')
         if node is None:
             node = _robot.get_interbotix_global_node()
             if node is None:
@@ -206,7 +208,9 @@ class InterbotixRobotXSCore:
         self.robot_node.get_logger().set_level(logging_level)
         _robot.register_robot(self)
         if bringup:
-            self._start_bringup(node_kwargs or {})
+            self._start_bringup(bringup, node_kwargs or {})
+            if connect_timeout is None and 'PX100_CONNECT_TIMEOUT' not in os.environ:
+                self.connect_timeout = 30.0  # the nodes start now: allow a slow machine
         self._make_interfaces()
         _robot.ensure_spinning(self.robot_node)
         self._wait_for_peers()
@@ -217,16 +221,17 @@ class InterbotixRobotXSCore:
         self.get_node().loginfo('Initialized InterbotixRobotXSCore!')
 
     # ------------------------------------------------------------------ setup
-    def _start_bringup(self, node_kwargs: dict) -> None:
-        from px100_control.client.inprocess import InProcessBringup
+    def _start_bringup(self, mode, node_kwargs: dict) -> None:
+        from px100_control.client.inprocess import InProcessBringup, ProcessBringup
         existing = _robot.get_bringup()
         if existing is not None:
             if existing.robot_name == self.robot_name:
                 return
             raise InterbotixException(
-                f"an in-process bringup for '{existing.robot_name}' is already running")
-        bringup = InProcessBringup(self.robot_model, self.robot_name,
-                                   real_time_factor=self.real_time_factor, **node_kwargs)
+                f"a bringup for '{existing.robot_name}' is already running in this process")
+        cls = ProcessBringup if str(mode).lower() == 'process' else InProcessBringup
+        bringup = cls(self.robot_model, self.robot_name,
+                      real_time_factor=self.real_time_factor, **node_kwargs)
         bringup.start(context=self.robot_node.context)
         _robot.set_bringup(bringup)
 
@@ -305,9 +310,13 @@ class InterbotixRobotXSCore:
             if now >= deadline:
                 break
             if now >= next_log:
-                self.get_node().logwarn('Waiting for ' + '; '.join(missing))
+                self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(missing))
                 next_log = now + 2.0
             time.sleep(0.02)
+        bringup = _robot.get_bringup()
+        problems = bringup.problems() if hasattr(bringup, 'problems') else ''
+        if problems:
+            missing.append(f'bringup processes: {problems}')
         message = (
             f"Failed to find the px100_control nodes under namespace '{self.ns or '/'}' within "
             f"{self.connect_timeout:.1f} s: {'; '.join(missing)}. Is sim_driver (with ik_service "
@@ -601,8 +610,8 @@ class InterbotixRobotXSCore:
                 self.cancel_goal(pending)
                 return False, problem
             if time.monotonic() > deadline:
-                self.cancel_goal(pending)
                 state = STATUS_NAMES.get(pending.status, 'no status at all')
+                self.cancel_goal(pending)
                 return False, (f'trajectory_server did not finish goal {gid} within '
                                f'{timeout:.1f} s (last status: {state}): is trajectory_server '
                                f"still running under namespace '{self.ns or '/'}'?")

@@ -6,11 +6,9 @@ script is the only command to run. The nodes come from :func:`px100_control.ros.
 create_nodes` (the same ones ``ros2 run px100_control bringup`` starts), live in the client's
 rclpy context, and spin in their own executor thread; :func:`robot_shutdown` stops them.
 """
-import inspect
-import threading
 from typing import List, Optional
 
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
 
 
@@ -41,47 +39,49 @@ class InProcessBringup:
         self.kwargs = kwargs
         self.nodes: List = []
         self.executor: Optional[MultiThreadedExecutor] = None
-        self.thread: Optional[threading.Thread] = None
+        self.thread = None  # robot.SpinThread
 
     def start(self, context=None) -> None:
         """Create the nodes and spin them in a background thread."""
         from px100_control.ros import bringup
         params = {'robot_model': self.robot_model, 'robot_name': self.robot_name}
-        if self.real_time_factor != 1.0:
-            params['real_time_factor'] = self.real_time_factor
         params.update(self.parameters)
         kwargs = dict(self.kwargs)
-        kwargs.setdefault('parameter_overrides',
-                          [Parameter(k, value=v) for k, v in params.items()])
-        kwargs.setdefault('allow_undeclared_parameters', True)
         if context is not None:
             kwargs.setdefault('context', context)
-        sig = inspect.signature(bringup.create_nodes)
-        if not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
-            kwargs = {k: v for k, v in kwargs.items() if k in sig.parameters}
-        self.nodes = list(bringup.create_nodes(**kwargs))
+        if self.real_time_factor == 1.0:
+            kwargs.setdefault('parameter_overrides', _overrides(params))
+            self.nodes = list(bringup.create_nodes(**kwargs))
+        else:
+            # the driver owns the clock (real_time_factor x wall time, published on /clock);
+            # ik_service and trajectory_server follow it with use_sim_time
+            self.nodes = []
+            try:
+                for cls, extra in ((_node_class('sim_driver'),
+                                    {'real_time_factor': self.real_time_factor}),
+                                   (_node_class('ik_service'), {'use_sim_time': True}),
+                                   (_node_class('trajectory_server'), {'use_sim_time': True})):
+                    node_kwargs = dict(kwargs)
+                    node_kwargs['parameter_overrides'] = _overrides({**params, **extra})
+                    self.nodes.append(cls(**node_kwargs))
+            except BaseException:
+                for node in self.nodes:
+                    node.destroy_node()
+                raise
         for node in self.nodes:
             for name, value in NODE_PARAMETERS.get(node.get_name(), {}).items():
                 if node.has_parameter(name):
                     node.set_parameters([Parameter(name, value=value)])
+        from px100_control.client.robot import SpinThread
         self.executor = MultiThreadedExecutor(context=context)
         for n in self.nodes:
             self.executor.add_node(n)
-        self.thread = threading.Thread(target=self._spin, name='px100_bringup', daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except (ExternalShutdownException, KeyboardInterrupt):
-            pass
-        except Exception:  # noqa: B902 - the context was shut down under the executor
-            pass
+        self.thread = SpinThread(self.executor, 'px100_bringup').start()
 
     def stop(self) -> None:
         """Stop spinning and destroy the nodes."""
-        from px100_control.client.robot import stop_executor
-        stop_executor(self.executor, self.thread)
+        if self.thread is not None:
+            self.thread.stop()
         for n in self.nodes:
             try:
                 n.destroy_node()
@@ -90,3 +90,106 @@ class InProcessBringup:
         self.nodes = []
         self.executor = None
         self.thread = None
+
+
+def _overrides(values: dict) -> list:
+    return [Parameter(k, value=v) for k, v in values.items()]
+
+
+def _node_class(name: str):
+    """Return the node class of one of the bringup's executables."""
+    if name == 'sim_driver':
+        from px100_control.ros.sim_driver_node import SimDriverNode
+        return SimDriverNode
+    if name == 'ik_service':
+        from px100_control.ros.ik_service_node import IkServiceNode
+        return IkServiceNode
+    from px100_control.ros.trajectory_server_node import TrajectoryServerNode
+    return TrajectoryServerNode
+
+
+class ProcessBringup:
+    """
+    The robot's nodes as three child processes of this one (``bringup='process'``).
+
+    Same nodes and parameters as :class:`InProcessBringup`, but each in its own Python process
+    (``python -m px100_control.ros.<node>``), so they do not share this process's interpreter
+    lock: more robust on a loaded machine. Output goes to log files (``log_paths``); stop()
+    sends SIGINT and waits.
+    """
+
+    MODULES = (('sim_driver', 'px100_control.ros.sim_driver_node'),
+               ('ik_service', 'px100_control.ros.ik_service_node'),
+               ('trajectory_server', 'px100_control.ros.trajectory_server_node'))
+
+    def __init__(self, robot_model: str = 'px100', robot_name: str = 'px100',
+                 real_time_factor: float = 1.0, parameters: Optional[dict] = None, **kwargs):
+        self.robot_model = robot_model
+        self.robot_name = robot_name
+        self.real_time_factor = float(real_time_factor)
+        self.parameters = dict(parameters or {})
+        self.procs: List = []
+        self.log_paths: List[str] = []
+        self._files: List = []
+
+    def start(self, context=None) -> None:
+        """Start the three node processes (returns at once; the client waits for them)."""
+        import os
+        import subprocess
+        import sys
+        import tempfile
+        import px100_control
+        package_root = os.path.dirname(os.path.dirname(os.path.abspath(px100_control.__file__)))
+        env = os.environ.copy()
+        env['PYTHONPATH'] = os.pathsep.join(
+            [package_root] + [p for p in env.get('PYTHONPATH', '').split(os.pathsep) if p])
+        common = {'robot_model': self.robot_model, 'robot_name': self.robot_name}
+        common.update(self.parameters)
+        for name, module in self.MODULES:
+            params = dict(common, **NODE_PARAMETERS.get(name, {}))
+            if self.real_time_factor != 1.0:
+                params.update({'real_time_factor': self.real_time_factor}
+                              if name == 'sim_driver' else {'use_sim_time': True})
+            args = [sys.executable, '-m', module, '--ros-args']
+            for key, value in params.items():
+                args += ['-p', f'{key}:={_ros_arg(value)}']
+            log = tempfile.NamedTemporaryFile(prefix=f'px100_{name}_', suffix='.log',
+                                              delete=False)
+            self._files.append(log)
+            self.log_paths.append(log.name)
+            self.procs.append(subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT,
+                                               env=env))
+
+    def problems(self) -> str:
+        """Return what went wrong with processes that exited (their last log lines), or ''."""
+        out = []
+        for (name, _), proc, path in zip(self.MODULES, self.procs, self.log_paths):
+            if proc.poll() is not None:
+                with open(path, encoding='utf-8', errors='replace') as f:
+                    tail = f.read().strip().splitlines()[-3:]
+                out.append(f'{name} exited with code {proc.returncode}: ' + ' | '.join(tail))
+        return '; '.join(out)
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """SIGINT every process and wait (SIGKILL after timeout)."""
+        import signal
+        import subprocess
+        for proc in self.procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in self.procs:
+            try:
+                proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5.0)
+        for f in self._files:
+            f.close()
+        self.procs = []
+
+
+def _ros_arg(value) -> str:
+    """Return a parameter value as a --ros-args -p text (YAML)."""
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    return str(value)

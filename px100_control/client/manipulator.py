@@ -17,7 +17,9 @@ same constructor signature and defaults, ``.core``, ``.arm``, ``.gripper`` (abse
 
 px100_control keywords (after the Interbotix ones): ``bringup=True`` (or env
 ``PX100_BRINGUP=1``) starts sim_driver, ik_service and trajectory_server in this process, so
-the script is the only command to run; ``real_time_factor`` speeds that simulation up;
+the script is the only command to run (``bringup='process'`` / ``PX100_BRINGUP=process``: as
+child processes instead, which share no interpreter lock with the script);
+``real_time_factor`` speeds that simulation up (the driver then owns the clock);
 ``connect_timeout`` [s] bounds the wait for the nodes (env ``PX100_CONNECT_TIMEOUT``, default
 10 s) before an InterbotixException names what is missing. ROS 1 scripts work too: they never
 call ``robot_startup()`` (the node spins from construction on), may pass ``init_node`` /
@@ -51,7 +53,8 @@ class InterbotixManipulatorXS:
     :param node: (optional) node to use instead of the global one
     :param iterative_update_fk: update the commanded EE pose after each joint command
     :param args: ignored (as in Interbotix)
-    :param bringup: start the nodes in this process (px100_control)
+    :param bringup: start the nodes: True in this process, 'process' as child processes
+        (px100_control)
     :param real_time_factor: in-process simulation speed (px100_control)
     :param connect_timeout: [s] how long to wait for the nodes (px100_control)
     :param node_kwargs: extra keyword arguments of the in-process nodes (px100_control)
@@ -66,7 +69,7 @@ class InterbotixManipulatorXS:
                  logging_level: LoggingSeverity = LoggingSeverity.INFO,
                  node_name: str = 'robot_manipulation', node=None,
                  iterative_update_fk: bool = True, args=None, *,
-                 bringup: Optional[bool] = None, real_time_factor: Optional[float] = None,
+                 bringup=None, real_time_factor: Optional[float] = None,
                  connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None,
                  use_gripper: bool = True, init_node: bool = True,
                  joint_state_topic: Optional[str] = None) -> None:

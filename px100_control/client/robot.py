@@ -98,7 +98,7 @@ class _Runtime:
         self.node: Optional[Node] = None
         self.owns_context = False
         self.executor: Optional[MultiThreadedExecutor] = None
-        self.thread: Optional[threading.Thread] = None
+        self.thread = None  # SpinThread
         self.spun_nodes = []
         self.startup_requested = False
         self.bringup = None  # px100_control.client.inprocess.InProcessBringup
@@ -137,31 +137,49 @@ def interbotix_is_up() -> bool:
     return _RT.thread is not None and _RT.thread.is_alive()
 
 
-def _spin(executor: MultiThreadedExecutor) -> None:
-    try:
-        executor.spin()
-    except (ExternalShutdownException, KeyboardInterrupt):
-        pass
-    except Exception:  # noqa: B902 - a context shut down under the executor ends the thread
-        if rclpy.ok():
-            raise
-
-
-def stop_executor(executor, thread, timeout: float = 5.0) -> None:
+class SpinThread:
     """
-    Stop an executor spinning in ``thread`` and wait for its in-flight callbacks.
+    Spin an executor in a daemon thread; stop it without racing its worker threads.
 
-    rclpy's Executor.shutdown() does not wait for callbacks already handed to a
-    MultiThreadedExecutor's thread pool; destroying nodes under them makes them fail, so the
-    pool is drained here first.
+    rclpy's Executor.shutdown() destroys the executor's guard condition without waiting for
+    callbacks already handed to a MultiThreadedExecutor's pool, which then fail ("cannot use
+    Destroyable because destruction was requested"). Here the loop is spin_once() until an event
+    is set; stop() ends the loop, drains the pool, and only then shuts the executor down.
     """
-    if executor is not None:
-        executor.shutdown(timeout_sec=timeout)
-    if thread is not None:
-        thread.join(timeout=timeout)
-    pool = getattr(executor, '_executor', None)
-    if pool is not None and hasattr(pool, 'shutdown'):
-        pool.shutdown(wait=True)
+
+    def __init__(self, executor, name: str):
+        self.executor = executor
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, name=name, daemon=True)
+
+    def start(self) -> 'SpinThread':
+        """Start spinning."""
+        self.thread.start()
+        return self
+
+    def is_alive(self) -> bool:
+        """Return True while the spin loop runs."""
+        return self.thread.is_alive()
+
+    def _run(self) -> None:
+        try:
+            while not self._stop.is_set() and self.executor.context.ok():
+                self.executor.spin_once(timeout_sec=0.05)
+        except (ExternalShutdownException, KeyboardInterrupt):
+            pass
+        except Exception:  # noqa: B902 - the context was shut down under the executor
+            if rclpy.ok() and not self._stop.is_set():
+                raise
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the loop, wait for running callbacks, shut the executor down."""
+        self._stop.set()
+        if self.thread.is_alive():
+            self.thread.join(timeout=timeout)
+        pool = getattr(self.executor, '_executor', None)
+        if pool is not None and hasattr(pool, 'shutdown'):
+            pool.shutdown(wait=True)
+        self.executor.shutdown(timeout_sec=timeout)
 
 
 def ensure_spinning(node: Node) -> None:
@@ -182,9 +200,7 @@ def ensure_spinning(node: Node) -> None:
         _RT.executor.add_node(node)
         _RT.spun_nodes.append(node)
         if _RT.thread is None or not _RT.thread.is_alive():
-            _RT.thread = threading.Thread(target=_spin, args=(_RT.executor,),
-                                          name='interbotix_executor', daemon=True)
-            _RT.thread.start()
+            _RT.thread = SpinThread(_RT.executor, 'interbotix_executor').start()
 
 
 def robot_startup(node: Optional[Node] = None,
@@ -238,7 +254,8 @@ def robot_shutdown(node: Optional[Node] = None) -> None:
             except Exception:  # noqa: B902 - shutting down anyway
                 pass
         _RT.robots = []
-        stop_executor(_RT.executor, _RT.thread)
+        if _RT.thread is not None:
+            _RT.thread.stop()
         nodes = list(_RT.spun_nodes)
         if node is not None and node not in nodes:
             nodes.append(node)

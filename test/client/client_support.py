@@ -5,9 +5,22 @@ import time
 
 import numpy as np
 
-#: short moves keep the suite fast
-MOVING_TIME = 0.5
-ACCEL_TIME = 0.1
+#: moves long enough for the simulated servos to track them (fast tests, realistic arm)
+MOVING_TIME = 1.0
+ACCEL_TIME = 0.3
+#: wall seconds per simulated second (PX100_REAL_TIME_FACTOR < 1 slows the simulation down for a
+#: loaded machine; every timing assertion scales with it)
+SLOW = 1.0 / float(os.environ.get('PX100_REAL_TIME_FACTOR', '1') or 1)
+
+
+def wall(t: float) -> float:
+    """Return the wall time [s] that t simulated seconds take."""
+    return t * SLOW
+
+
+def pause(t: float) -> None:
+    """Sleep t simulated seconds."""
+    time.sleep(wall(t))
 
 
 def make_bot(**kwargs):
@@ -21,8 +34,8 @@ def make_bot(**kwargs):
 
 
 def wait_until(predicate, timeout: float = 3.0, period: float = 0.01) -> bool:
-    """Poll predicate until it is true or timeout [s] passes; return its last value."""
-    end = time.monotonic() + timeout
+    """Poll predicate until true or timeout simulated seconds pass; return its last value."""
+    end = time.monotonic() + wall(timeout)
     while time.monotonic() < end:
         if predicate():
             return True

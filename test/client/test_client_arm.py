@@ -6,7 +6,7 @@ Each test states the Interbotix behaviour it checks, or the documented improveme
 import math
 import time
 
-from client_support import ACCEL_TIME, EeSampler, MOVING_TIME, wait_until
+from client_support import ACCEL_TIME, EeSampler, MOVING_TIME, pause, wait_until, wall
 import numpy as np
 from px100_control.kinematics.rotations import matrix_to_euler_sxyz
 import pytest
@@ -62,7 +62,7 @@ def test_blocking_waits_for_arrival(bot):
     t0 = time.monotonic()
     assert bot.arm.set_joint_positions(target, moving_time=0.6) is True
     elapsed = time.monotonic() - t0
-    assert 0.55 <= elapsed <= 0.6 + 1.0, elapsed
+    assert wall(0.55) <= elapsed <= wall(0.6) + 2.5, elapsed
     assert bot.arm.last_goal_status() == 'SUCCEEDED'
     np.testing.assert_allclose(bot.arm.get_joint_positions(), target, atol=0.005)
 
@@ -73,7 +73,7 @@ def test_non_blocking_returns_at_once(bot):
     target = [-0.5, 0.1, 0.2, 0.3]
     t0 = time.monotonic()
     assert bot.arm.set_joint_positions(target, moving_time=0.8, blocking=False) is True
-    assert time.monotonic() - t0 < 0.2
+    assert time.monotonic() - t0 < 0.3
     assert bot.arm.get_joint_commands() == target
     np.testing.assert_allclose(bot.arm.get_ee_pose_command(), bot.core.model.fk(target))
     assert np.max(np.abs(np.array(bot.arm.get_joint_positions()) - target)) > 0.3
@@ -86,7 +86,7 @@ def test_newer_goal_preempts(bot):
     """A new command overrides a running non-blocking one (Interbotix semantics)."""
     bot.arm.go_to_home_pose()
     assert bot.arm.set_joint_positions([1.0, 0, 0, 0], moving_time=1.5, blocking=False)
-    time.sleep(0.3)
+    pause(0.3)
     first = bot.arm._last_goal
     assert bot.arm.set_joint_positions([-0.3, 0, 0, 0], moving_time=0.8)
     assert bot.core.goal_status(first) == 'CANCELED'
@@ -95,14 +95,15 @@ def test_newer_goal_preempts(bot):
 
 def test_sticky_timing(bot):
     """moving_time/accel_time given once become the defaults (and the emulated registers)."""
-    bot.arm.go_to_home_pose(moving_time=0.9, accel_time=0.2)
-    assert (bot.arm.moving_time, bot.arm.accel_time) == (0.9, 0.2)
+    bot.arm.go_to_home_pose(moving_time=1.8, accel_time=0.2)
+    assert (bot.arm.moving_time, bot.arm.accel_time) == (1.8, 0.2)
     regs = bot.core.robot_get_motor_registers('group', 'arm', 'Profile_Velocity')
-    assert regs == [900] * 4
+    assert regs == [1800] * 4
     assert bot.core.robot_get_motor_registers('single', 'elbow', 'Profile_Acceleration') == [200]
     t0 = time.monotonic()
     assert bot.arm.set_joint_positions([0.3, 0, 0, 0])
-    assert 0.85 <= time.monotonic() - t0 <= 0.9 + 1.0
+    elapsed = time.monotonic() - t0
+    assert wall(1.75) <= elapsed <= wall(1.8) + 3.0, elapsed
     bot.arm.set_trajectory_time(MOVING_TIME, ACCEL_TIME)
     assert (bot.arm.moving_time, bot.arm.accel_time) == (MOVING_TIME, ACCEL_TIME)
 
@@ -163,7 +164,7 @@ def test_single_joint(bot):
 ])
 def test_ee_pose_components_reaches_within_1mm(bot, x, y, z, pitch):
     """set_ee_pose_components returns (theta, True) and ee_pose ends within 1 mm."""
-    theta, ok = bot.arm.set_ee_pose_components(x=x, y=y, z=z, pitch=pitch, moving_time=0.8)
+    theta, ok = bot.arm.set_ee_pose_components(x=x, y=y, z=z, pitch=pitch, moving_time=1.2)
     assert ok is True
     assert isinstance(theta, np.ndarray) and theta.shape == (4,)
     err = np.linalg.norm(fresh_ee(bot) - [x, y, z])
@@ -226,20 +227,20 @@ def test_unreachable_targets_fail_cleanly(bot):
     assert ok is False
     theta, ok = bot.arm.set_ee_pose_matrix(np.full((4, 4), np.nan))
     assert ok is False
-    assert time.monotonic() - t0 < 3.0
+    assert time.monotonic() - t0 < 3.0  # wall: IK answers do not depend on sim time
     assert bot.arm.get_joint_commands() == [0.0] * 4
 
 
 def test_cartesian_trajectory_is_a_straight_line(bot):
     """set_ee_cartesian_trajectory moves the EE along a line (measured) and blocks."""
-    _, ok = bot.arm.set_ee_pose_components(x=0.18, z=0.12, pitch=0.3, moving_time=0.8)
+    _, ok = bot.arm.set_ee_pose_components(x=0.18, z=0.12, pitch=0.3, moving_time=1.2)
     assert ok
     start = fresh_ee(bot)
     with EeSampler(bot) as sampler:
         t0 = time.monotonic()
         assert bot.arm.set_ee_cartesian_trajectory(x=0.05, z=-0.06, moving_time=1.0) is True
         elapsed = time.monotonic() - t0
-    assert 0.95 <= elapsed <= 3.0
+    assert wall(0.95) <= elapsed <= wall(1.0) + 3.0
     end = start + [0.05, 0, -0.06]
     assert np.linalg.norm(fresh_ee(bot) - end) < 1e-3
     P = sampler.array()
@@ -256,7 +257,7 @@ def test_cartesian_trajectory_is_a_straight_line(bot):
 
 def test_cartesian_trajectory_refusals(bot):
     """y/yaw on a 4-DOF arm, an unreachable line, or moving_time < wp_period: False, no move."""
-    _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, moving_time=0.8)
+    _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, moving_time=1.2)
     assert ok
     cmds = bot.arm.get_joint_commands()
     assert bot.arm.set_ee_cartesian_trajectory(y=0.02) is False
@@ -269,7 +270,7 @@ def test_cartesian_trajectory_refusals(bot):
 
 def test_relative_move_noetic(bot):
     """ROS 1 set_relative_ee_position_wrt_to_base_frame moves the commanded xyz by (dx, dy, dz)."""
-    _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.12, moving_time=0.8)
+    _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.12, moving_time=1.2)
     assert ok
     _, ok = bot.arm.set_relative_ee_position_wrt_to_base_frame(dx=-0.02, dz=0.03)
     assert ok
@@ -283,7 +284,7 @@ def test_velocities_and_efforts_exist(bot):
     assert len(efforts) == 4 and all(math.isfinite(e) for e in efforts)
     assert bot.arm.set_joint_positions([1.0, 0, 0, 0], moving_time=1.0, accel_time=0.2,
                                        blocking=False)
-    time.sleep(0.55)
+    pause(0.55)
     v = bot.arm.get_joint_velocities()
     assert len(v) == 4
     # trapezoid cruise speed 1.0 / (1.0 - 0.2) = 1.25 rad/s

@@ -7,9 +7,8 @@ open()/close(). Core: robot info, registers, operating modes, torque, reboot, ra
 trajectories, joint-state getters.
 """
 import math
-import time
 
-from client_support import ACCEL_TIME, MOVING_TIME, wait_until
+from client_support import ACCEL_TIME, MOVING_TIME, pause, wait_until
 import numpy as np
 from px100_control.client.gripper import pwm_to_effort
 import pytest
@@ -33,12 +32,12 @@ def test_gripper_release_and_grasp_reach_the_finger_limits(bot):
     assert g.left_finger_lower_limit == pytest.approx(LOWER)
     assert g.left_finger_upper_limit == pytest.approx(UPPER)
     g.release(delay=0.1)
-    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 3.0), \
+    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 5.0), \
         g.get_finger_position()
     # the 50 Hz gripper_state timer stops the drive once the limit is reached
     assert wait_until(lambda: not g.gripper_moving, 1.0)
     g.grasp(delay=0.1)
-    assert wait_until(lambda: g.get_finger_position() < LOWER + 5e-4, 3.0), \
+    assert wait_until(lambda: g.get_finger_position() < LOWER + 5e-4, 5.0), \
         g.get_finger_position()
     assert wait_until(lambda: not g.gripper_moving, 1.0)
     assert g.get_gripper_position() < 0.0  # the horn angle of a closed gripper
@@ -49,9 +48,9 @@ def test_ros1_open_close_aliases(bot):
     """gripper.open() / close() (ROS 1 names) are release() / grasp()."""
     g = bot.gripper
     g.open(delay=0.1)
-    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 3.0)
+    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 5.0)
     g.close(delay=0.1)
-    assert wait_until(lambda: g.get_finger_position() < LOWER + 5e-4, 3.0)
+    assert wait_until(lambda: g.get_finger_position() < LOWER + 5e-4, 5.0)
 
 
 def test_grasp_an_object_and_pressure_maps_to_effort(bot):
@@ -62,7 +61,7 @@ def test_grasp_an_object_and_pressure_maps_to_effort(bot):
     """
     g = bot.gripper
     g.release(delay=0.1)
-    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 3.0)
+    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 5.0)
     width = 0.040
     assert bot.core.set_remote_parameters(sim_driver(bot), {'object_width': width}) == ''
     try:
@@ -70,16 +69,16 @@ def test_grasp_an_object_and_pressure_maps_to_effort(bot):
             g.set_pressure(pressure)
             assert g.gripper_value == pytest.approx(150 + 200 * pressure)
             g.grasp(delay=0.1)
-            assert wait_until(lambda: abs(g.get_finger_width() - width) < 1e-3, 3.0), \
+            assert wait_until(lambda: abs(g.get_finger_width() - width) < 1e-3, 5.0), \
                 g.get_finger_width()
-            time.sleep(0.3)
+            pause(0.3)
             # blocked by the object: still squeezing, never reaches the closed limit
             assert g.gripper_moving
             assert g.get_finger_width() == pytest.approx(width, abs=1e-3)
             expected = -pwm_to_effort(g.gripper_value)
             assert g.get_gripper_effort() == pytest.approx(expected, abs=0.05)
             g.release(delay=0.1)
-            assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 3.0)
+            assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 5.0)
     finally:
         g.set_pressure(0.5)
         bot.core.set_remote_parameters(sim_driver(bot), {'object_width': 0.0})
@@ -127,10 +126,10 @@ def test_torque_off_then_capture(bot):
     assert bot.core.robot_torque_enable('group', 'all', False) is True
     try:
         assert wait_until(lambda: np.max(np.abs(np.array(bot.arm.get_joint_positions())
-                                                - before)) > 0.05, 3.0)
+                                                - before)) > 0.05, 5.0)
     finally:
         assert bot.core.robot_torque_enable('group', 'all', True) is True
-    time.sleep(0.3)
+    pause(0.3)
     bot.arm.capture_joint_positions()
     np.testing.assert_allclose(bot.arm.get_joint_commands(), bot.arm.get_joint_positions(),
                                atol=0.02)
@@ -151,9 +150,9 @@ def test_raw_commands_and_trajectory(bot):
     core.robot_set_motor_registers('group', 'arm', 'Profile_Acceleration', 100)
     core.robot_write_commands('arm', [0.2, 0.1, 0.1, 0.1])
     assert wait_until(lambda: np.allclose(bot.arm.get_joint_positions(), [0.2, 0.1, 0.1, 0.1],
-                                          atol=0.005), 3.0)
+                                          atol=0.005), 5.0)
     core.robot_write_joint_command('waist', -0.2)
-    assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] + 0.2) < 0.005, 3.0)
+    assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] + 0.2) < 0.005, 5.0)
     core.robot_write_trajectory('group', 'arm', 'position', [
         {0.0: [-0.2, 0.1, 0.1, 0.1]}, {0.5: [0.0, 0.2, 0.0, 0.0]}, {1.0: [0.3, 0.0, 0.0, 0.0]}])
     assert wait_until(lambda: np.allclose(bot.arm.get_joint_positions(), [0.3, 0, 0, 0],
