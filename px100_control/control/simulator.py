@@ -157,7 +157,10 @@ def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
     if not names:
         raise InvalidInputError('setpoint names no joint')
     if len(set(names)) != len(names):
-        dup = sorted({n for n in names if names.count(n) > 1})
+        seen, dup = set(), set()
+        for n in names:  # linear: names.count() per name stalled the node on huge input
+            (dup if n in seen else seen).add(n)
+        dup = sorted(dup)
         raise InvalidInputError(f'duplicate joint names {dup}')
     for n in names:
         if n not in known:

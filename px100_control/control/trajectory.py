@@ -560,7 +560,10 @@ def validate_points(known_joints: Sequence[str], joint_names: Sequence[str], tim
     if not names:
         return 'goal has no joint names'
     if len(set(names)) != len(names):
-        dup = sorted({x for x in names if names.count(x) > 1})
+        seen, dup = set(), set()
+        for x in names:  # linear: names.count() per name stalled the node on huge input
+            (dup if x in seen else seen).add(x)
+        dup = sorted(dup)
         return f'duplicate joint names: {dup}'
     unknown = [x for x in names if x not in known_joints]
     if unknown:
