@@ -41,6 +41,8 @@ SEED000_OBJECTS = {
 APPROACH_HEIGHT = 0.04
 #: width [m] of the simulated object between the fingers
 OBJECT_WIDTH = 0.036
+#: joint speed [rad/s] the demo plans long moves with (the px100 limit is pi)
+CRUISE_SPEED = 1.5
 
 
 def mm_to_m(target):
@@ -156,11 +158,11 @@ def plot(trace: Trace, objects: dict, out_dir: str) -> list:
         ax.scatter(*ee[0, 1:], color='black', marker='o', s=30, label='start')
     for name, info in objects.items():
         (pick, _), (place, _) = info['pick'], info['place']
-        style = dict(s=60, depthshade=False)
+        style = {'s': 60, 'depthshade': False}
         if info['status'] != 'done':
             ax.scatter(*pick, color='gray', marker='x', **style)
             ax.scatter(*place, color='gray', marker='x', **style)
-            ax.text(*pick, f' {name} (skipped)', fontsize=7, color='gray')
+            ax.text(*pick, f" {name} ({info['status']})", fontsize=7, color='gray')
             continue
         ax.scatter(*pick, color='tab:green', marker='^', **style)
         ax.scatter(*place, color='tab:red', marker='v', **style)
@@ -169,6 +171,9 @@ def plot(trace: Trace, objects: dict, out_dir: str) -> list:
     ax.set_xlabel('x [m]')
     ax.set_ylabel('y [m]')
     ax.set_zlabel('z [m]')
+    if len(ee):
+        span = np.ptp(ee[:, 1:], axis=0)
+        ax.set_box_aspect(np.maximum(span, 0.05 * span.max()))
     ax.set_title('End-effector path in px100/base_link')
     ax.legend(loc='upper left', fontsize=8)
     fig.tight_layout()
@@ -230,10 +235,22 @@ class Demo:
         return ''
 
     def goto(self, label, xyz, pitch, dz=0.0) -> bool:
-        """Move to (xyz + dz) [m] with the given pitch (joint-space move)."""
+        """
+        Move to (xyz + dz) [m] with the given pitch (joint-space move).
+
+        Plans first (execute=False) to give long moves the time they need: at most
+        ``CRUISE_SPEED`` on any joint, never less than the demo's moving time.
+        """
         self.trace.phase(label)
+        target = {'x': xyz[0], 'y': xyz[1], 'z': xyz[2] + dz, 'pitch': pitch}
+        theta, ok = self.bot.arm.set_ee_pose_components(**target, execute=False,
+                                                        moving_time=30.0)
+        if not ok:
+            return self.step(label, False)
+        travel = float(np.max(np.abs(np.asarray(theta) - self.bot.arm.get_joint_commands())))
+        mt = max(self.mt, travel / CRUISE_SPEED + 0.3)
         return self.step(label, self.bot.arm.set_ee_pose_components(
-            x=xyz[0], y=xyz[1], z=xyz[2] + dz, pitch=pitch, moving_time=self.mt))
+            **target, moving_time=mt, accel_time=0.3))
 
     def line(self, label, dz) -> bool:
         """Move straight up/down by dz [m]."""
@@ -248,21 +265,21 @@ class Demo:
               f'{np.round(d_xyz, 3).tolist()} m pitch {d_pitch:.3f}')
         g = self.bot.gripper
         self.trace.phase('open')
-        g.release(delay=0.4)
+        g.release(delay=0.2)
         ok = self.goto('Approach Pick', p_xyz, p_pitch, APPROACH_HEIGHT)
         ok = ok and self.line('Pick', -APPROACH_HEIGHT)
         if not ok:
             return False
         self.set_object(OBJECT_WIDTH)
         self.trace.phase('grasp')
-        g.grasp(delay=0.6)
+        g.grasp(delay=1.5)
         print(f'  {"grasp":<15} finger gap {1000 * g.get_finger_width():.1f} mm '
               f'(object {1000 * OBJECT_WIDTH:.0f} mm)')
         ok = self.line('Approach Pick', APPROACH_HEIGHT) and \
             self.goto('Approach Drop', d_xyz, d_pitch, APPROACH_HEIGHT) and \
             self.line('Drop', -APPROACH_HEIGHT)
         self.trace.phase('release')
-        g.release(delay=0.4)
+        g.release(delay=0.8)
         self.set_object(0.0)
         return ok and self.line('Approach Drop', APPROACH_HEIGHT)
 
@@ -280,6 +297,12 @@ def main(argv=None) -> int:
     parser.add_argument('--no-bag', action='store_true', help='do not record an MCAP bag')
     parser.add_argument('--objects', default='object1,object2,object3',
                         help='comma-separated subset of seed 000 objects')
+    parser.add_argument('--bringup', choices=('thread', 'process'), default='thread',
+                        help='run the nodes as threads of this process (default) or as child '
+                             'processes (more robust on a loaded machine)')
+    parser.add_argument('--real-time-factor', type=float, default=None,
+                        help='simulation speed (default 1; env PX100_REAL_TIME_FACTOR); < 1 '
+                             'slows the simulation down on a slow machine')
     args = parser.parse_args(argv)
     os.environ.setdefault('MPLBACKEND', 'Agg')
 
@@ -289,8 +312,11 @@ def main(argv=None) -> int:
     os.makedirs(out_dir, exist_ok=True)
     started = time.monotonic()
     bot = InterbotixManipulatorXS('px100', 'arm', 'gripper', robot_name=args.robot_name,
-                                  moving_time=args.moving_time, accel_time=0.25,
-                                  bringup=not args.connect)
+                                  moving_time=args.moving_time, accel_time=0.3,
+                                  gripper_pressure=1.0,
+                                  bringup=False if args.connect else (
+                                      'process' if args.bringup == 'process' else True),
+                                  real_time_factor=args.real_time_factor)
     robot_startup()
     trace = Trace(bot)
     stop_bag, bag_dir = (None, 'disabled (--no-bag)') if args.no_bag else start_bag(bot, out_dir)
@@ -298,7 +324,7 @@ def main(argv=None) -> int:
     objects = {}
     try:
         trace.phase('Home')
-        bot.arm.go_to_home_pose()
+        bot.arm.go_to_home_pose(moving_time=max(1.5, args.moving_time))
         for name in [s.strip() for s in args.objects.split(',') if s.strip()]:
             pick, place = (mm_to_m(t) for t in SEED000_OBJECTS[name])
             objects[name] = {'pick': pick, 'place': place, 'status': 'skipped'}
@@ -310,7 +336,7 @@ def main(argv=None) -> int:
             ok = demo.move_object(name, pick, place)
             objects[name]['status'] = 'done' if ok else 'failed'
         trace.phase('Sleep')
-        bot.arm.go_to_sleep_pose()
+        bot.arm.go_to_sleep_pose(moving_time=max(1.5, args.moving_time), accel_time=0.3)
         time.sleep(0.3)
     finally:
         if stop_bag is not None:
@@ -323,7 +349,9 @@ def main(argv=None) -> int:
     for name, o in objects.items():
         if o['status'] != 'done':
             print(f'  {name}: {o["status"]}' + (f' ({o["reason"]})' if 'reason' in o else ''))
-    print(f'bag:   {bag_dir}')
+    hint = f'   (summary, plots: ros2 run px100_control inspect {bag_dir})' \
+        if stop_bag is not None else ''
+    print(f'bag:   {bag_dir}{hint}')
     for p in paths:
         print(f'plot:  {p}')
     return 0 if not demo.failures else 1

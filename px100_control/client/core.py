@@ -511,16 +511,28 @@ class InterbotixRobotXSCore:
         """
         if self._server_accel is not None and abs(self._server_accel - accel_time) < 1e-9:
             return
-        infos = self.robot_node.get_subscriptions_info_by_topic(self.topic('trajectory/goal'))
-        if not infos:
+        node = self._peer_node('trajectory/goal', 'trajectory_server')
+        if node is None:
             return
-        node = f"{infos[0].node_namespace.rstrip('/')}/{infos[0].node_name}"
         problem = self.set_remote_parameters(node, {'accel_time': float(accel_time)}, timeout)
         if problem:
             self.get_node().logwarn(f"Cannot set trajectory_server's accel_time to "
                                     f'{accel_time:.3f} s: {problem}')
             return
         self._server_accel = float(accel_time)
+
+    def _peer_node(self, topic: str, name: str) -> Optional[str]:
+        """
+        Return the full name of the node ``name`` subscribed to ``topic`` (None if none is).
+
+        Other subscribers (a recorder records every topic) are skipped; a node renamed at
+        launch is accepted when it is the only subscriber.
+        """
+        infos = self.robot_node.get_subscriptions_info_by_topic(self.topic(topic))
+        named = [i for i in infos if i.node_name == name] or (infos if len(infos) == 1 else [])
+        if not named:
+            return None
+        return f"{named[0].node_namespace.rstrip('/')}/{named[0].node_name}"
 
     def set_remote_parameters(self, node: str, values: dict, timeout: float = 2.0) -> str:
         """
@@ -574,10 +586,9 @@ class InterbotixRobotXSCore:
         """Warn when ik_service may answer a 4/5-DOF arm with roll-flipped configurations."""
         if self.model.dof >= 6:
             return
-        infos = self.robot_node.get_subscriptions_info_by_topic(self.topic('ik/request'))
-        if not infos:
+        node = self._peer_node('ik/request', 'ik_service')
+        if node is None:
             return
-        node = f"{infos[0].node_namespace.rstrip('/')}/{infos[0].node_name}"
         mode = self.get_remote_parameter(node, 'orientation_mode', timeout=1.0)
         if mode == 'pitch':
             self.get_node().logwarn(

@@ -12,11 +12,16 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
 
 
-#: parameters the client sets on its own in-process nodes. ik_service 'strict': the whole pose
-#: or nothing, which is what Interbotix's IK guarantees (eomg/ev); in 'pitch' mode a 4-DOF arm
-#: may be answered with the roll-flipped "over the top" configuration (same tool x axis, gripper
-#: upside down), which the client would have to refuse.
-NODE_PARAMETERS = {'ik_service': {'orientation_mode': 'strict'}}
+#: parameters the client sets on the nodes it starts itself:
+#: - ik_service 'strict': the whole pose or nothing, which is what Interbotix's IK guarantees
+#:   (eomg/ev); in 'pitch' mode a 4-DOF arm may be answered with the roll-flipped "over the top"
+#:   configuration (same tool x axis, gripper upside down), which the client would refuse;
+#: - trajectory_server path_tolerance 0.5 rad (default 0.2): the simulated servos track a move
+#:   within ~0.02 rad, but on a loaded machine the simulation can fall behind the clock for a
+#:   moment and a 0.2 rad check aborts moves that then complete fine; blocked joints and a dead
+#:   driver are still detected (tracking, settling and state timeouts).
+NODE_PARAMETERS = {'ik_service': {'orientation_mode': 'strict'},
+                   'trajectory_server': {'path_tolerance': 0.5}}
 
 
 class InProcessBringup:
