@@ -21,6 +21,7 @@ import time
 from typing import Dict, Iterable, List, Optional
 
 from px100_control.bag import metadata as md
+from px100_control.bag.mcap_io import McapWriter
 from px100_control.bag.msgdefs import message_definition, normalize_type, type_hash
 from px100_control.errors import BagError
 
@@ -34,13 +35,10 @@ def storage_file_name(bag_dir: str) -> str:
     return os.path.basename(os.path.normpath(bag_dir)) + '_0.mcap'
 
 
-def _mcap_writer(stream, compression: str, chunk_size: int):
-    from mcap.writer import CompressionType, Writer
-    kinds = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
-             'none': CompressionType.NONE}
-    if compression not in kinds:
+def _mcap_writer(stream, compression: str, chunk_size: int) -> McapWriter:
+    if compression not in COMPRESSIONS:
         raise BagError(f"unknown compression '{compression}' (one of {', '.join(COMPRESSIONS)})")
-    return Writer(stream, chunk_size=chunk_size, compression=kinds[compression])
+    return McapWriter(stream, compression=compression, chunk_size=chunk_size)
 
 
 class BagWriter:
@@ -76,6 +74,9 @@ class BagWriter:
         self.path = os.path.join(self.bag_dir, self.file_name)
         if os.path.exists(self.path):
             raise BagError(f'{self.path}: exists already')
+        if compression not in COMPRESSIONS:
+            raise BagError(f"unknown compression '{compression}' "
+                           f"(one of {', '.join(COMPRESSIONS)})")
         self.compression = compression
         self.flush_period_s = float(flush_period_s)
         self.custom_data = dict(custom_data or {})
@@ -83,7 +84,7 @@ class BagWriter:
         self._lock = threading.Lock()
         self._stream = open(self.path, 'wb')
         self._writer = _mcap_writer(self._stream, compression, int(chunk_size))
-        self._writer.start(profile=PROFILE, library=LIBRARY)
+        self._writer.start(PROFILE, LIBRARY)
         self._stream.flush()
         self._schemas: Dict[str, int] = {}
         self._channels: Dict[str, int] = {}
@@ -123,14 +124,13 @@ class BagWriter:
                 return self.topics[topic]
             if full not in self._schemas:
                 text = msgdef if msgdef is not None else message_definition(full)
-                self._schemas[full] = self._writer.register_schema(
-                    name=full, encoding='ros2msg', data=text.encode('utf-8'))
+                self._schemas[full] = self._writer.add_schema(full, 'ros2msg',
+                                                              text.encode('utf-8'))
             profiles = [dict(p) for p in offered_qos_profiles]
             digest = type_hash(full) if type_description_hash is None else type_description_hash
-            self._channels[topic] = self._writer.register_channel(
-                topic=topic, message_encoding='cdr', schema_id=self._schemas[full],
-                metadata={'offered_qos_profiles': md.qos_to_yaml(profiles),
-                          'topic_type_hash': digest})
+            self._channels[topic] = self._writer.add_channel(
+                topic, 'cdr', self._schemas[full],
+                {'offered_qos_profiles': md.qos_to_yaml(profiles), 'topic_type_hash': digest})
             self._sequence[topic] = 0
             record = md.TopicRecord(name=topic, type_name=full, offered_qos_profiles=profiles,
                                     type_description_hash=digest)
@@ -154,9 +154,8 @@ class BagWriter:
             seq = self._sequence[topic] + 1
             self._sequence[topic] = seq
             self._writer.add_message(
-                channel_id=channel, log_time=log_time_ns, data=bytes(data),
-                publish_time=log_time_ns if publish_time_ns is None else int(publish_time_ns),
-                sequence=seq)
+                channel, log_time_ns,
+                log_time_ns if publish_time_ns is None else int(publish_time_ns), data, seq)
             self.topics[topic].message_count += 1
             self.message_count += 1
             if self.start_ns is None or log_time_ns < self.start_ns:

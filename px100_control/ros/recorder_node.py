@@ -57,6 +57,10 @@ TF_TOPIC = '/tf'
 TF_QOS = md.qos_profile('reliable', 'volatile', 'keep_last', 100)
 DESCRIPTION_QOS = md.qos_profile('reliable', 'transient_local', 'keep_last', 1)
 SUBSCRIPTION_DEPTH = 1000
+#: most queued messages taken in one callback (the other topics get their turn after that)
+DRAIN_LIMIT = 200
+#: joint states kept for /tf while the URDF is being parsed at start-up
+TF_BACKLOG = 20000
 
 
 def default_output_dir() -> str:
@@ -169,6 +173,7 @@ class RecorderNode(Node):
         self._skipped: Dict[str, str] = {}
         self._lock = threading.Lock()
         self._closing = False
+        self._drain_on_close = True
         self.closed = threading.Event()
         self.stop_reason = ''
         self.metadata_path = ''
@@ -178,6 +183,7 @@ class RecorderNode(Node):
         self._model_urdf_xml: Optional[str] = None
         self._model_ready = threading.Event()
         self._last_tf_ns = 0
+        self._tf_backlog: List[tuple] = []
         self._description_seen = False
         self._first_js_at: Optional[float] = None
         self._dropped_writes = 0
@@ -272,23 +278,42 @@ class RecorderNode(Node):
         write = self.bag.write
         is_js = topic == self.js_topic
         is_description = topic == self.description_topic
+        subs = self._subs
 
-        def callback(data: bytes, info: dict) -> None:
+        def handle(data: bytes, info: dict) -> bool:
             t = info.get('received_timestamp') or time.time_ns()
-            if self._closing:
-                return
             try:
                 write(topic, data, t, info.get('source_timestamp') or t)
             except BagError:
                 self._dropped_writes += 1  # closed under our feet (stop in progress)
-                return
-            self._last_message_at = time.monotonic()
+                return False
             if self.max_messages is not None and self.bag.message_count >= self.max_messages:
+                self._drain_on_close = False  # exactly max_messages
                 self.request_stop(f'{self.max_messages} messages recorded')
+                return False
             if is_js and self.write_tf:
                 self._joint_states_to_tf(data, t)
             elif is_description:
                 self._on_description(data)
+            return True
+
+        def callback(data: bytes, info: dict) -> None:
+            if self._closing or not handle(data, info):
+                return
+            # take what else is queued now: one executor wake-up per burst, not per message
+            # (the executor's per-message overhead is what limits a Python recorder at 1 kHz)
+            sub = subs.get(topic)
+            for _ in range(DRAIN_LIMIT):
+                if sub is None or self._closing:
+                    break
+                try:
+                    with sub.handle:
+                        taken = sub.handle.take_message(sub.msg_type, True)
+                except Exception:  # destroyed meanwhile (stop in progress)
+                    break
+                if taken is None or not handle(*taken):
+                    break
+            self._last_message_at = time.monotonic()
 
         return callback
 
@@ -300,6 +325,15 @@ class RecorderNode(Node):
             return
         try:
             urdf = deserialize_message(data, String).data
+        except Exception:  # not a String after all: /tf keeps using the robot model
+            return
+        # parsing a URDF can take a while (yourdfpy): never in the executor's thread
+        threading.Thread(target=self._use_description, args=(urdf,), daemon=True,
+                         name='px100_recorder_urdf').start()
+
+    def _use_description(self, urdf: str) -> None:
+        """Build the /tf tree from a published robot_description (background thread)."""
+        try:
             tree = TfTree(urdf, '')
             if not tree.movable:
                 raise ValueError('it has no movable joint')
@@ -309,22 +343,33 @@ class RecorderNode(Node):
             self.get_logger().warning(f'robot_description is not a usable URDF ({exc}); '
                                       '/tf uses the robot model')
             return
-        self._tf_tree, self._tf_from_description = tree, True
+        self._tf_tree = tree
 
     def _joint_states_to_tf(self, data: bytes, log_ns: int) -> None:
-        if log_ns - self._last_tf_ns < self.tf_period_ns:
-            return
-        from rclpy.serialization import deserialize_message
-        from sensor_msgs.msg import JointState
         if self._first_js_at is None:
             self._first_js_at = time.monotonic()
         if self._tf_tree is None:
             if not self._model_ready.is_set():
-                return  # the model is still loading (first second): no /tf yet
+                # the URDF is still being parsed (first seconds): /tf of these joint states is
+                # written as soon as it is ready
+                if len(self._tf_backlog) < TF_BACKLOG:
+                    self._tf_backlog.append((data, log_ns))
+                return
             if self._model_tf_tree is None:
                 self.write_tf = False
                 return
             self._tf_tree = self._model_tf_tree
+        if self._tf_backlog:
+            backlog, self._tf_backlog = self._tf_backlog, []
+            for old_data, old_ns in backlog:
+                self._write_tf(old_data, old_ns)
+        self._write_tf(data, log_ns)
+
+    def _write_tf(self, data: bytes, log_ns: int) -> None:
+        if log_ns - self._last_tf_ns < self.tf_period_ns:
+            return
+        from rclpy.serialization import deserialize_message
+        from sensor_msgs.msg import JointState
         try:
             msg = deserialize_message(data, JointState)
         except Exception:  # a malformed message: recorded as is, no /tf from it
@@ -339,6 +384,18 @@ class RecorderNode(Node):
         except BagError:
             return
         self._last_tf_ns = log_ns
+
+    def _flush_tf_backlog(self, timeout_s: float = 5.0) -> None:
+        """At close: wait (a little) for the URDF, then write /tf of the waiting joint states."""
+        if not (self.write_tf and self._tf_backlog):
+            return
+        if self._tf_tree is None:
+            self._model_ready.wait(timeout_s)
+            self._tf_tree = self._tf_tree or self._model_tf_tree
+        if self._tf_tree is not None:
+            backlog, self._tf_backlog = self._tf_backlog, []
+            for data, log_ns in backlog:
+                self._write_tf(data, log_ns)
 
     def _write_model_description(self) -> None:
         urdf = self._model_urdf_xml
@@ -391,6 +448,9 @@ class RecorderNode(Node):
                 return self.metadata_path
             self._closing = True
         try:
+            if self._drain_on_close:
+                self._drain_queues()
+            self._flush_tf_backlog()
             for sub in list(self._subs.values()):
                 try:
                     self.destroy_subscription(sub)
@@ -405,6 +465,26 @@ class RecorderNode(Node):
         finally:
             self.closed.set()
         return self.metadata_path
+
+    def _drain_queues(self) -> None:
+        """Write what was received but not taken yet (also after SIGINT shut the context)."""
+        for topic, sub in list(self._subs.items()):
+            for _ in range(100 * SUBSCRIPTION_DEPTH):
+                try:
+                    with sub.handle:
+                        taken = sub.handle.take_message(sub.msg_type, True)
+                except Exception:  # destroyed: nothing left to take
+                    break
+                if taken is None:
+                    break
+                data, info = taken
+                t = info.get('received_timestamp') or time.time_ns()
+                try:
+                    self.bag.write(topic, data, t, info.get('source_timestamp') or t)
+                except BagError:
+                    break
+                if topic == self.js_topic and self.write_tf:
+                    self._joint_states_to_tf(data, t)
 
     @property
     def topics_recorded(self) -> List[str]:

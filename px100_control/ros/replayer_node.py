@@ -4,7 +4,8 @@ Replay a bag into the live graph with its original timing: ``ros2 run px100_cont
 Command line (the options of ``ros2 bag play``)::
 
     replay BAG [-r/--rate R] [-l/--loop] [--topics T ...] [--remap FROM:=TO ...]
-               [--start-offset S] [--delay S] [--wait-for-subscribers S] [--no-progress]
+               [--start-offset S] [--delay S] [--wait-for-subscribers S [--min-subscribers N]]
+               [--no-progress]
 
 Messages are published as the recorded bytes (no deserialisation) on publishers with the QoS
 recorded for their topic (transient local stays transient local). Topic names without a leading
@@ -59,7 +60,8 @@ class ReplayerNode(Node):
     :param remap: ``from:=to`` topic remappings
     :param start_offset: bag time [s] to skip at the start
     :param delay: wait this long [s] before the first message
-    :param wait_for_subscribers: wait up to this long [s] for every topic to have a subscriber
+    :param wait_for_subscribers: wait up to this long [s] for every topic to have
+        min_subscribers subscribers
     :param progress: write a progress line to stderr
     :raises BagError: bad bag, unknown topic or type, bad option value
     """
@@ -67,7 +69,8 @@ class ReplayerNode(Node):
     def __init__(self, bag: str, rate: float = 1.0, loop: bool = False,
                  topics: Optional[Sequence[str]] = None, remap: Optional[Sequence[str]] = None,
                  start_offset: float = 0.0, delay: float = 0.0,
-                 wait_for_subscribers: float = 0.0, progress: bool = True, **node_kwargs):
+                 wait_for_subscribers: float = 0.0, min_subscribers: int = 1,
+                 progress: bool = True, **node_kwargs):
         super().__init__('replayer', **node_kwargs)
         # the robot_model/robot_name parameters of every node (the model itself is not needed)
         read_robot_file(str(self.declare_parameter('robot_model', 'px100').value))
@@ -84,6 +87,7 @@ class ReplayerNode(Node):
             raise
         self.delay = float(delay)
         self.wait_for_subscribers = float(wait_for_subscribers)
+        self.min_subscribers = max(1, int(min_subscribers))
         self.progress = bool(progress)
         self.published = 0
         self.passes = 0
@@ -165,11 +169,12 @@ class ReplayerNode(Node):
     def _wait_for_subscribers(self) -> None:
         deadline = time.monotonic() + self.wait_for_subscribers
         while time.monotonic() < deadline and not self._stop.is_set():
-            if all(p.get_subscription_count() > 0 for p in self.publishers_by_topic.values()):
+            if all(p.get_subscription_count() >= self.min_subscribers
+                   for p in self.publishers_by_topic.values()):
                 return
             time.sleep(0.05)
         missing = [t for t, p in self.publishers_by_topic.items()
-                   if p.get_subscription_count() == 0]
+                   if p.get_subscription_count() < self.min_subscribers]
         if missing:
             self.get_logger().warning(f"no subscriber on {', '.join(missing)} after "
                                       f'{self.wait_for_subscribers:g} s: replaying anyway')
@@ -265,6 +270,8 @@ def _add_arguments(parser) -> None:
                         help='wait this many seconds before publishing')
     parser.add_argument('--wait-for-subscribers', type=float, default=0.0, metavar='S',
                         help='wait up to S seconds for a subscriber on every topic')
+    parser.add_argument('--min-subscribers', type=int, default=1, metavar='N',
+                        help='with --wait-for-subscribers: wait for N subscribers per topic')
     parser.add_argument('--no-progress', action='store_true',
                         help='no progress line on stderr')
 
@@ -313,6 +320,7 @@ def main(args=None) -> int:
                             topics=options.topics, remap=options.remap,
                             start_offset=options.start_offset, delay=options.delay,
                             wait_for_subscribers=options.wait_for_subscribers,
+                            min_subscribers=options.min_subscribers,
                             progress=not options.no_progress)
         node.start()
         executor = SingleThreadedExecutor()

@@ -48,8 +48,8 @@ def _replay(node_process, *args):
     return proc.output()
 
 
-def test_replay_bytes_timing_and_latched_topic(rclpy_context, spin_node, node_process,
-                                              replay_bag):
+def test_replay_bytes_timing_and_latched_topic(
+        rclpy_context, spin_node, node_process, replay_bag):
     """Every setpoint arrives once, in order, byte-identical, 0.98 s apart end to end."""
     bag_dir, sent = replay_bag
     listener = spin_node(RawListener([(SP, JointState)], context=rclpy_context))
