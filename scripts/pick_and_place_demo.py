@@ -42,7 +42,7 @@ APPROACH_HEIGHT = 0.04
 #: width [m] of the simulated object between the fingers
 OBJECT_WIDTH = 0.036
 #: joint speed [rad/s] the demo plans long moves with (the px100 limit is pi)
-CRUISE_SPEED = 1.5
+CRUISE_SPEED = 2.0
 
 
 def mm_to_m(target):
@@ -52,54 +52,70 @@ def mm_to_m(target):
 
 
 class Trace:
-    """Measured joints / setpoints / EE poses sampled from the client's node during the run."""
+    """
+    The run's data for the plots: measured joints, setpoints and EE positions vs time.
 
-    def __init__(self, bot):
-        from geometry_msgs.msg import PoseStamped
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
-        from sensor_msgs.msg import JointState
+    With a bag, the data is read back from it after the run (no extra subscriptions in this
+    process); without one, the client's node subscribes to the same topics while it runs.
+    Phase marks are wall-clock times, like the bag's log times.
+    """
+
+    def __init__(self, bot, subscribe: bool):
         self.lock = threading.Lock()
-        self.t0 = time.monotonic()
+        self.t0_ns = time.time_ns()
         self.js, self.sp, self.ee = [], [], []
         self.phases = []
         self.arm_joints = list(bot.arm.joint_names)
         self.fingers = list(bot.core.model.gripper.fingers) if bot.core.model.gripper else []
-        node, core = bot.core.get_node(), bot.core
-        qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.subs = [
-            node.create_subscription(JointState, core.topic(core.topic_joint_states),
-                                     self._on_js, qos),
-            node.create_subscription(JointState, core.topic('commands/joint_setpoints'),
-                                     self._on_sp, qos),
-            node.create_subscription(PoseStamped, core.topic('ee_pose'), self._on_ee, qos),
-        ]
-
-    def now(self) -> float:
-        """Return seconds since the trace started."""
-        return time.monotonic() - self.t0
+        self.topics = {bot.core.topic(bot.core.topic_joint_states): self._on_js,
+                       bot.core.topic('commands/joint_setpoints'): self._on_sp,
+                       bot.core.topic('ee_pose'): self._on_ee}
+        self.subs = []
+        if subscribe:
+            from geometry_msgs.msg import PoseStamped
+            from rclpy.qos import QoSProfile, ReliabilityPolicy
+            from sensor_msgs.msg import JointState
+            qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
+            node = bot.core.get_node()
+            for topic, cb in self.topics.items():
+                msg_type = PoseStamped if topic.endswith('ee_pose') else JointState
+                self.subs.append(node.create_subscription(
+                    msg_type, topic, lambda m, cb=cb: cb(m, time.time_ns()), qos))
 
     def phase(self, label: str) -> None:
         """Mark where a phase starts (labelled in the plots)."""
         with self.lock:
-            self.phases.append((self.now(), label))
+            self.phases.append(((time.time_ns() - self.t0_ns) * 1e-9, label))
 
-    def _on_js(self, msg):
+    def read_bag(self, bag_dir: str) -> None:
+        """Fill the data from a recorded bag (log times)."""
+        from px100_control.bag.reader import open_bag
+        with open_bag(bag_dir) as bag:
+            topics = [t for t in self.topics if t in bag.topics]
+            for raw, msg in bag.iter_decoded(topics):
+                self.topics[raw.topic](msg, raw.log_time_ns)
+
+    def _t(self, ns: int) -> float:
+        return (ns - self.t0_ns) * 1e-9
+
+    def _on_js(self, msg, ns):
         index = {n: i for i, n in enumerate(msg.name)}
         names = self.arm_joints + self.fingers
-        if all(n in index for n in names):
+        if all(n in index for n in names) and len(msg.position) == len(msg.name):
             with self.lock:
-                self.js.append([self.now()] + [msg.position[index[n]] for n in names])
+                self.js.append([self._t(ns)] + [msg.position[index[n]] for n in names])
 
-    def _on_sp(self, msg):
+    def _on_sp(self, msg, ns):
         index = {n: i for i, n in enumerate(msg.name)}
-        if len(msg.position) and all(n in index for n in self.arm_joints):
+        if len(msg.position) == len(msg.name) and all(n in index for n in self.arm_joints):
             with self.lock:
-                self.sp.append([self.now()] + [msg.position[index[n]] for n in self.arm_joints])
+                self.sp.append([self._t(ns)] + [msg.position[index[n]]
+                                                for n in self.arm_joints])
 
-    def _on_ee(self, msg):
+    def _on_ee(self, msg, ns):
         p = msg.pose.position
         with self.lock:
-            self.ee.append([self.now(), p.x, p.y, p.z])
+            self.ee.append([self._t(ns), p.x, p.y, p.z])
 
     def arrays(self):
         """Return (joint states, setpoints, ee) as arrays with time in column 0."""
@@ -185,17 +201,11 @@ def plot(trace: Trace, objects: dict, out_dir: str) -> list:
 
 
 def start_bag(bot, out_dir: str):
-    """Start recording the robot's topics to an MCAP bag; return a stop() callable or None."""
-    try:
-        from px100_control.ros import recorder_node
-    except ImportError:
-        return None, 'no recorder module'
-    api = getattr(recorder_node, 'record_in_process', None)
-    if api is None:
-        return None, 'px100_control recorder API not available yet'
-    stamp = time.strftime('%Y%m%d_%H%M%S')
-    bag_dir = os.path.join(out_dir, f'pick_and_place_{stamp}')
-    return api(bot.get_node().context, bag_dir, robot_name=bot.core.robot_name), bag_dir
+    """Start recording every topic of the robot to an MCAP bag; return (stop(), bag_dir)."""
+    from px100_control.ros.recorder_node import record_in_process
+    bag_dir = os.path.join(out_dir, time.strftime('pick_and_place_%Y%m%d_%H%M%S'))
+    return record_in_process(bot.get_node().context, bag_dir,
+                             robot_name=bot.core.robot_name), bag_dir
 
 
 class Demo:
@@ -215,6 +225,22 @@ class Demo:
         problem = self.bot.core.set_remote_parameters(self.sim, {'object_width': float(width)})
         if problem:
             print(f'  (cannot set sim_driver object_width: {problem})')
+
+    def move(self, label: str, command) -> bool:
+        """
+        Run a move command (a callable); retry once when the machine, not the plan, failed it.
+
+        On a heavily loaded machine the simulation can fall behind the clock and
+        trajectory_server then aborts a move (tracking / settling); such a move is retried once.
+        """
+        result = command()
+        ok = bool(result[1] if isinstance(result, tuple) else result)
+        why = self.bot.arm.last_error
+        machine = ('tracking error', 'did not settle', 'did not finish')
+        if not ok and any(k in why for k in machine):
+            print(f'  {label:<15} retrying: {why[why.find("ABORTED"):][:90] or why[:90]}')
+            result = command()
+        return self.step(label, result)
 
     def step(self, label: str, ok) -> bool:
         """Record a step's outcome."""
@@ -249,14 +275,20 @@ class Demo:
             return self.step(label, False)
         travel = float(np.max(np.abs(np.asarray(theta) - self.bot.arm.get_joint_commands())))
         mt = max(self.mt, travel / CRUISE_SPEED + 0.3)
-        return self.step(label, self.bot.arm.set_ee_pose_components(
+        return self.move(label, lambda: self.bot.arm.set_ee_pose_components(
             **target, moving_time=mt, accel_time=0.3))
 
     def line(self, label, dz) -> bool:
         """Move straight up/down by dz [m]."""
         self.trace.phase(label)
-        return self.step(label, self.bot.arm.set_ee_cartesian_trajectory(
-            z=dz, moving_time=max(0.5, self.mt * 0.75)))
+        start = self.bot.arm.get_ee_pose_command()[2, 3]
+
+        def line():
+            # after an aborted try, go the rest of the way from where the arm stopped
+            return self.bot.arm.set_ee_cartesian_trajectory(
+                z=start + dz - self.bot.arm.get_ee_pose_command()[2, 3],
+                moving_time=max(0.5, self.mt * 0.75))
+        return self.move(label, line)
 
     def move_object(self, name, pick, place) -> bool:
         """Run the seed 001 waypoint sequence for one object."""
@@ -279,7 +311,7 @@ class Demo:
             self.goto('Approach Drop', d_xyz, d_pitch, APPROACH_HEIGHT) and \
             self.line('Drop', -APPROACH_HEIGHT)
         self.trace.phase('release')
-        g.release(delay=0.8)
+        g.release(delay=0.5)
         self.set_object(0.0)
         return ok and self.line('Approach Drop', APPROACH_HEIGHT)
 
@@ -291,8 +323,9 @@ def main(argv=None) -> int:
     parser.add_argument('--connect', action='store_true',
                         help='use sim_driver/ik_service/trajectory_server already running')
     parser.add_argument('--robot-name', default='px100', help='namespace of the nodes')
-    parser.add_argument('--moving-time', type=float, default=1.0,
-                        help='duration of each joint-space move [s] (default 1.0)')
+    parser.add_argument('--moving-time', type=float, default=0.8,
+                        help='shortest joint-space move [s] (default 0.8; longer moves get '
+                             'the time they need)')
     parser.add_argument('--out', default=os.path.join(ROOT, 'out'), help='output folder')
     parser.add_argument('--no-bag', action='store_true', help='do not record an MCAP bag')
     parser.add_argument('--objects', default='object1,object2,object3',
@@ -318,8 +351,8 @@ def main(argv=None) -> int:
                                       'process' if args.bringup == 'process' else True),
                                   real_time_factor=args.real_time_factor)
     robot_startup()
-    trace = Trace(bot)
     stop_bag, bag_dir = (None, 'disabled (--no-bag)') if args.no_bag else start_bag(bot, out_dir)
+    trace = Trace(bot, subscribe=stop_bag is None)
     demo = Demo(bot, trace, args.moving_time)
     objects = {}
     try:
@@ -342,6 +375,8 @@ def main(argv=None) -> int:
         if stop_bag is not None:
             stop_bag()
         robot_shutdown()
+    if stop_bag is not None:
+        trace.read_bag(bag_dir)
     paths = plot(trace, objects, out_dir)
     done = [n for n, o in objects.items() if o['status'] == 'done']
     print(f'\nmoved {len(done)}/{len(objects)} objects ({", ".join(done) or "none"}) in '
