@@ -64,7 +64,7 @@ def spin_node(rclpy_context):
 @pytest.fixture
 def node_process():
     """
-    Return a factory ``node_process(executable, *args)`` starting this package's executables.
+    Start this package's executables through the returned factory (name, *args).
 
     Each process is stopped with SIGINT and waited for at teardown; a process that had to be
     killed fails the test.

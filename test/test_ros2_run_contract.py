@@ -1,10 +1,9 @@
 """The `ros2 run px100_control <name>` contract, resolved the way ros2cli does it."""
 import os
 
+from px100_control.tools.processes import executable_path, NodeProcess
 import pytest
 import yaml
-
-from px100_control.tools.processes import NodeProcess, executable_path
 
 # Every executable of shared/reference/ros_interfaces.md.
 CONTRACT_EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'bringup', 'record',
