@@ -15,8 +15,12 @@ Benchmark of the ik_service node over DDS, and of the trajectory_server setpoint
   joint-state echo in this process; the period of the received ``commands/joint_setpoints``
   (stamps and arrival times) against 1/rate.
 
+- Baseline: the same rounds against a 'null' service (same topics, QoS and replies, no IK: the
+  floor of the request/reply protocol in rclpy on this machine).
+
 ``run(quick)`` returns the numbers as a dict; ``main()`` prints them and writes
-``benchmarks/results/ik_service.json``. Needs ROS_DOMAIN_ID set to a private domain (default 23).
+``benchmarks/results/ik_service.json`` (``--quick``: fewer requests). Set ROS_DOMAIN_ID to a
+private domain (default 23). Usage: ``python benchmarks/bench_ik_service.py [--quick]``.
 """
 import json
 import os
@@ -161,7 +165,18 @@ class _Receiver:
             client.on_reply(kind, rid[1])
 
 
-def _ik_round(ctx, executor, clients: int, n_requests: int, poses, qos, run_sec: int) -> dict:
+def _cpu_seconds(pid: int) -> float:
+    """Return the user + system CPU time [s] a process has used (Linux /proc)."""
+    try:
+        with open(f'/proc/{pid}/stat') as f:
+            fields = f.read().rsplit(')', 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+    except (OSError, IndexError, ValueError):
+        return float('nan')
+
+
+def _ik_round(ctx, executor, clients: int, n_requests: int, poses, qos, run_sec: int,
+              server_pid: int = 0) -> dict:
     done = threading.Semaphore(0)
     cl = [_Client(ctx, k, run_sec, poses, n_requests, qos, done) for k in range(clients)]
     rx = _Receiver(ctx, cl, qos, run_sec % 1000)
@@ -174,6 +189,7 @@ def _ik_round(ctx, executor, clients: int, n_requests: int, poses, qos, run_sec:
             and rx.node.count_publishers('/px100/ik/status') > 0):
         time.sleep(0.05)
     time.sleep(1.0)  # discovery of the reply readers settles
+    cpu0 = _cpu_seconds(server_pid)
     t0 = time.perf_counter()
     for c in cl:
         c.send_next()
@@ -183,6 +199,7 @@ def _ik_round(ctx, executor, clients: int, n_requests: int, poses, qos, run_sec:
         if done.acquire(timeout=0.5):
             finished += 1
     elapsed = time.perf_counter() - t0
+    cpu = _cpu_seconds(server_pid) - cpu0
     time.sleep(0.5)  # late duplicates would arrive now
     rtt = np.array([x for c in cl for x in c.rtt]) * 1e3
     sent = sum(len(c.sent) for c in cl)
@@ -198,16 +215,61 @@ def _ik_round(ctx, executor, clients: int, n_requests: int, poses, qos, run_sec:
             'rtt_p50_ms': round(float(np.percentile(rtt, 50)), 3) if rtt.size else None,
             'rtt_p99_ms': round(float(np.percentile(rtt, 99)), 3) if rtt.size else None,
             'rtt_max_ms': round(float(rtt.max()), 3) if rtt.size else None,
-            'lost': int(lost), 'duplicated': int(dup)}
+            'lost': int(lost), 'duplicated': int(dup),
+            'server_cpu_ms_per_request': round(cpu / max(rtt.size, 1) * 1e3, 3)}
 
 
-def bench_ik(quick: bool) -> dict:
-    """Run the ik_service benchmark rounds (1 client, 8 clients)."""
+def null_server() -> int:
+    """
+    Run a 'null' ik_service: same topics, QoS and replies (fixed, no IK), one reply pair each.
+
+    The floor of the request/reply protocol in rclpy on this machine, for comparison.
+    """
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+    from px100_control.ros.ik_service_node import parse_pose_stamped, REQUEST_QOS
+    rclpy.init()
+    node = Node('ik_service_null')
+    pub_sol = node.create_publisher(JointState, '/px100/ik/solution', REQUEST_QOS)
+    pub_st = node.create_publisher(DiagnosticStatus, '/px100/ik/status', REQUEST_QOS)
+    sol = JointState(name=list(ARM), position=[0.0] * 4)
+    st = DiagnosticStatus(name='px100/ik_service', message='solved')
+
+    def on_request(raw):
+        stamp, _, _ = parse_pose_stamped(raw)
+        sol.header.stamp = stamp
+        st.hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
+        pub_sol.publish(sol)
+        pub_st.publish(st)
+    node.create_subscription(PoseStamped, '/px100/ik/request', on_request, REQUEST_QOS,
+                             raw=True)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    node.destroy_node()
+    rclpy.try_shutdown()
+    return 0
+
+
+def bench_ik(quick: bool, null: bool = False) -> dict:
+    """Run the ik_service benchmark rounds (1 client, 8 clients); null: the null server."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from px100_control.ros.ik_service_node import REQUEST_QOS
     poses = _targets(500)
-    server = _start('px100_control.ros.ik_service_node')
+    if null:
+        server = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--null-server'],
+                                  cwd=ROOT, env=_env(), stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+    else:
+        server = _start('px100_control.ros.ik_service_node')
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     executor = SingleThreadedExecutor(context=ctx)
@@ -217,9 +279,10 @@ def bench_ik(quick: bool) -> dict:
     try:
         run_sec = int(time.time()) % 100000 * 100
         n1 = 1000 if quick else 5000
-        out['single_client'] = _ik_round(ctx, executor, 1, n1, poses, REQUEST_QOS, run_sec)
+        out['single_client'] = _ik_round(ctx, executor, 1, n1, poses, REQUEST_QOS, run_sec,
+                                         server.pid)
         out['eight_clients'] = _ik_round(ctx, executor, 8, n1 // 4 if quick else n1 // 2,
-                                         poses, REQUEST_QOS, run_sec + 10)
+                                         poses, REQUEST_QOS, run_sec + 10, server.pid)
     finally:
         executor.shutdown(timeout_sec=2.0)
         ctx.try_shutdown()
@@ -300,7 +363,8 @@ def bench_setpoint_jitter(quick: bool) -> dict:
 def run(quick: bool = True) -> dict:
     """Run every part; return the results (also the machine's load while they ran)."""
     load0 = os.getloadavg()
-    out = {'ik_service': bench_ik(quick), 'trajectory_server': bench_setpoint_jitter(quick)}
+    out = {'ik_service': bench_ik(quick), 'null_service_baseline': bench_ik(quick, null=True),
+           'trajectory_server': bench_setpoint_jitter(quick)}
     out['machine'] = {'cpus': os.cpu_count(), 'python': platform.python_version(),
                       'loadavg_before': [round(x, 2) for x in load0],
                       'loadavg_after': [round(x, 2) for x in os.getloadavg()]}
@@ -310,14 +374,18 @@ def run(quick: bool = True) -> dict:
 
 def main() -> int:
     """Print the benchmark results and write benchmarks/results/ik_service.json."""
+    if '--null-server' in sys.argv:
+        return null_server()
     quick = '--quick' in sys.argv
     res = run(quick)
-    for key in ('single_client', 'eight_clients'):
-        r = res['ik_service'][key]
-        print(f"ik_service {r['clients']} client(s): {r['requests_per_s']:.0f} requests/s, "
+    for part, key in [(p, k) for p in ('ik_service', 'null_service_baseline')
+                      for k in ('single_client', 'eight_clients')]:
+        r = res[part][key]
+        print(f"{part} {r['clients']} client(s): {r['requests_per_s']:.0f} requests/s, "
               f"round trip p50 {r['rtt_p50_ms']} ms, p99 {r['rtt_p99_ms']} ms, "
               f"max {r['rtt_max_ms']} ms; {r['requests']} sent, lost {r['lost']}, "
-              f"duplicated {r['duplicated']}")
+              f"duplicated {r['duplicated']}; server CPU {r['server_cpu_ms_per_request']} ms "
+              'per request')
     t = res['trajectory_server']
     print(f'trajectory_server setpoints at 200 Hz: {t}')
     print(f"machine: {res['machine']}")

@@ -28,7 +28,19 @@ def pose_to_matrix(pose: Pose, *, allow_zero_quaternion: bool = False) -> Tuple[
     """
     p = pose.position
     o = pose.orientation
-    vals = np.array([p.x, p.y, p.z, o.x, o.y, o.z, o.w], dtype=float)
+    return pose_values_to_matrix((p.x, p.y, p.z, o.x, o.y, o.z, o.w),
+                                 allow_zero_quaternion=allow_zero_quaternion)
+
+
+def pose_values_to_matrix(values, *, allow_zero_quaternion: bool = False
+                          ) -> Tuple[np.ndarray, bool]:
+    """
+    Return (T (4, 4), orientation_free) of (x, y, z, qx, qy, qz, qw), as pose_to_matrix does.
+
+    For callers that read a pose without building a message (e.g. from serialized CDR).
+    :raises InvalidInputError: NaN/inf, or a quaternion that is not a rotation
+    """
+    vals = np.array(values, dtype=float)
     if not np.all(np.isfinite(vals)):
         raise InvalidInputError(f'pose contains NaN or inf: {vals.tolist()}')
     q = vals[3:]

@@ -27,10 +27,19 @@ message) or 'strict' (the whole pose or nothing); ``method`` ('auto' analytic wh
 has one, iterative otherwise or as a fallback); ``tol_position`` [m], ``tol_orientation``
 [rad], ``max_iterations``; ``nominal_pose`` (default: the model's home pose).
 The IK itself is :func:`px100_control.kinematics.solve.solve_ik` / ``solve_path``.
+
+Throughput path: requests are read serialized (header, frame and pose straight from the CDR
+bytes), every request already queued is answered in the same executor wake-up, and when at least
+``BATCH_MIN`` 'pitch' requests are waiting they are solved with one vectorised call of the
+model's analytic batch solver (``solve_ik_batch``), verified as solve_ik verifies (same task,
+FK residuals, tolerances; anything unsettled goes through solve_ik). Replies reuse preallocated
+messages. The node spins single-threaded.
 """
 import math
+import struct
 import threading
 
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
@@ -41,16 +50,21 @@ from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
                                       robot_topic, spin_node)
-from px100_control.ros.conversions import pose_to_matrix, stamp_id
+from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 NODE_NAME = 'ik_service'
+_HEAD = struct.Struct('<iII')     # header.stamp.sec, .nanosec, frame_id length (with NUL)
+_POSE = struct.Struct('<7d')      # position x y z, orientation x y z w
 MODES = {'pitch': 'pitch', 'strict': 'full'}
+#: queued 'pitch' requests from which one vectorised call beats solve_ik per request
+BATCH_MIN = 4
 
 #: requests and replies: reliable and deep, so bursts from many clients lose nothing
 REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
@@ -73,6 +87,26 @@ try:  # the pieces solve_ik verifies analytic solutions with (the batched fast p
     from px100_control.kinematics.solve import make_task as ik_make_task
 except ImportError:  # pragma: no cover - without them every request goes through solve_ik
     ik_chain = ik_fk_batch = ik_make_task = None
+
+
+def parse_pose_stamped(raw: bytes):
+    """
+    Return (stamp (builtin_interfaces/Time), frame_id, (x, y, z, qx, qy, qz, qw)) of a request.
+
+    ``raw`` is a serialized geometry_msgs/PoseStamped. Little-endian CDR (what every ROS 2
+    middleware here sends) is read in place: header.stamp, frame_id, then the 7 doubles aligned
+    to 8; anything else goes through rclpy's deserializer.
+    """
+    if raw[:2] == b'\x00\x01' and len(raw) >= 16:
+        sec, nanosec, n = _HEAD.unpack_from(raw, 4)
+        off = 12 + n                      # CDR offsets count from the end of the 4-byte header
+        off += -off % 8
+        if n >= 1 and 4 + off + 56 <= len(raw):
+            frame = raw[16:15 + n].decode('utf-8', 'replace')
+            return Time(sec=sec, nanosec=nanosec), frame, _POSE.unpack_from(raw, 4 + off)
+    msg = deserialize_message(raw, PoseStamped)
+    p, o = msg.pose.position, msg.pose.orientation
+    return msg.header.stamp, msg.header.frame_id, (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
 
 
 def _distinct(Q: np.ndarray, seed: np.ndarray, tol: float = 1e-9):
@@ -131,7 +165,8 @@ class IkServiceNode(Node):
         self.create_subscription(JointState, robot_topic(self, 'joint_states'),
                                  self._on_joint_states, qos_profile_sensor_data)
         self._request_sub = self.create_subscription(
-            PoseStamped, robot_topic(self, 'ik/request'), self._on_request, REQUEST_QOS)
+            PoseStamped, robot_topic(self, 'ik/request'), self._on_request, REQUEST_QOS,
+            raw=True)
         self.create_subscription(PoseArray, robot_topic(self, 'ik/path_request'),
                                  self._on_path_request, 100)
         # preallocated replies: only the changing fields are written per request
@@ -139,6 +174,7 @@ class IkServiceNode(Node):
         self._solution.name = list(self._names)
         self._status = DiagnosticStatus()
         self._status.name = self._diag_name
+        self._key_values = [KeyValue() for _ in range(8)]
         self.get_logger().info(
             f'ik_service ready: {self.model.name} ({self.model.dof} joints, analytic '
             f'{self.model.analytic_ik or "none"}), orientation_mode {self._mode_param}')
@@ -201,18 +237,18 @@ class IkServiceNode(Node):
         with self._lock:
             return self._meas.copy() if self._have_state else self._nominal
 
-    def _target(self, header, pose):
-        """Return (T, mode) of a request; raise InvalidInputError when it is malformed."""
-        if header.frame_id not in self._frames:
+    def _target(self, frame: str, values):
+        """Return (T, mode) of a request pose; raise InvalidInputError when it is malformed."""
+        if frame not in self._frames:
             raise InvalidInputError(
-                f"frame_id '{header.frame_id}' is not the base frame '{self._frames[1]}' "
+                f"frame_id '{frame}' is not the base frame '{self._frames[1]}' "
                 '(no tf lookup here: send targets in the base frame)')
-        T, free = pose_to_matrix(pose, allow_zero_quaternion=True)
+        T, free = pose_values_to_matrix(values, allow_zero_quaternion=True)
         return T, ('position' if free else self._mode)
 
-    def _on_request(self, msg: PoseStamped) -> None:
+    def _on_request(self, raw: bytes) -> None:
         """Answer this request and every other one already queued (one executor wake-up)."""
-        batch = [msg]
+        batch = [raw]
         while len(batch) < self._max_batch:
             queued = self._take_queued()
             if queued is None:
@@ -221,9 +257,13 @@ class IkServiceNode(Node):
         seed = self._seed()
         fast = []
         for req in batch:
-            stamp = req.header.stamp
             try:
-                T, mode = self._target(req.header, req.pose)
+                stamp, frame, values = parse_pose_stamped(req)
+            except Exception as exc:  # noqa: B902 - unreadable bytes: no id to answer to
+                self.get_logger().error(f'unreadable ik/request dropped: {exc!r}')
+                continue
+            try:
+                T, mode = self._target(frame, values)
             except InvalidInputError as exc:
                 self._reply(stamp, None, DiagnosticStatus.ERROR, f'invalid request: {exc}', ())
                 continue
@@ -231,8 +271,11 @@ class IkServiceNode(Node):
                 fast.append((stamp, T))
             else:
                 self._solve_one(stamp, T, mode, seed)
-        if fast:
+        if len(fast) >= BATCH_MIN:
             self._solve_fast(fast, seed)
+        else:
+            for stamp, T in fast:
+                self._solve_one(stamp, T, 'pitch', seed)
 
     def _take_queued(self):
         """Return the next request waiting in the subscription queue, or None."""
@@ -328,14 +371,21 @@ class IkServiceNode(Node):
         return vals
 
     def _reply(self, stamp, q, level: int, message: str, values) -> None:
+        """Publish the solution and the status of one request (preallocated messages)."""
         sol = self._solution
         sol.header.stamp = stamp
         sol.position = [] if q is None else [float(x) for x in q]
         st = self._status
         st.level = level
         st.message = message
-        st.hardware_id = stamp_id(stamp)
-        st.values = [KeyValue(key=k, value=v) for k, v in values]
+        st.hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
+        pool = self._key_values
+        while len(pool) < len(values):
+            pool.append(KeyValue())
+        for kv, (key, value) in zip(pool, values):
+            kv.key = key
+            kv.value = value
+        st.values = pool[:len(values)]
         self._pub_solution.publish(sol)
         self._pub_status.publish(st)
         if level != DiagnosticStatus.OK:
@@ -356,7 +406,9 @@ class IkServiceNode(Node):
             modes = set()
             for i, pose in enumerate(msg.poses):
                 try:
-                    T, mode = self._target(msg.header, pose)
+                    p, o = pose.position, pose.orientation
+                    T, mode = self._target(msg.header.frame_id,
+                                           (p.x, p.y, p.z, o.x, o.y, o.z, o.w))
                 except InvalidInputError as exc:
                     raise InvalidInputError(f'pose {i}: {exc}') from None
                 targets.append(T)

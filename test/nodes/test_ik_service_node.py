@@ -334,3 +334,23 @@ def test_unique_stamps_are_unique():
     """The helper gives distinct ids (the tests rely on it)."""
     stamps = {(s.sec, s.nanosec) for s in (unique_stamp() for _ in range(1000))}
     assert len(stamps) == 1000
+
+
+@pytest.mark.parametrize('frame', ['', 'a', 'px100/base_link', 'abcdefg', 'abcdefgh', 'é' * 5])
+def test_serialized_request_is_read_like_the_deserializer(frame):
+    """parse_pose_stamped (the raw fast path) equals rclpy's deserializer for any frame_id."""
+    from geometry_msgs.msg import PoseStamped
+    from px100_control.ros.ik_service_node import parse_pose_stamped
+    from rclpy.serialization import serialize_message
+    msg = PoseStamped()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = -5, 999_999_999
+    msg.header.frame_id = frame
+    vals = [0.1, -0.2, 0.3, float('nan'), 0.0, -0.0, 1.0]
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z, o.x, o.y, o.z, o.w = vals
+    raw = serialize_message(msg)
+    stamp, got_frame, got = parse_pose_stamped(raw)
+    assert (stamp.sec, stamp.nanosec, got_frame) == (-5, 999_999_999, frame)
+    np.testing.assert_array_equal(np.array(got), np.array(vals))
+    with pytest.raises(Exception):  # unreadable bytes raise (the node logs and drops them)
+        parse_pose_stamped(b'\x00\x00' + raw[2:9])
