@@ -18,6 +18,9 @@ def main(argv=None) -> int:
     parser.add_argument('--index', type=int, default=0)
     parser.add_argument('--moves', type=int, default=4)
     parser.add_argument('--moving-time', type=float, default=0.6)
+    parser.add_argument('--turn-file', default='',
+                        help='connect at once, move only when this file holds --index, then '
+                             'write index + 1 to it (scripts started together take turns)')
     parser.add_argument('--wait-subscribers', type=int, default=0,
                         help='diagnosis only: wait until this many nodes subscribe to the goals')
     opts = parser.parse_args(argv)
@@ -37,6 +40,10 @@ def main(argv=None) -> int:
             time.monotonic() < deadline:
         time.sleep(0.02)
     waited_s = time.monotonic() - t0 - connect_s
+    turn_wait = time.monotonic()
+    while opts.turn_file and _read(opts.turn_file) != str(opts.index):
+        time.sleep(0.02)
+    turn_wait = time.monotonic() - turn_wait
     rng = np.random.default_rng(opts.index)
     ok, goals, failures = 0, [], []
     # from wherever the last script left the arm: home first (sleep -> home takes a while)
@@ -62,14 +69,25 @@ def main(argv=None) -> int:
             reason = getattr(last, 'reason', '') if last is not None else ''
             failures.append(f'move {i} to {np.round(target, 3).tolist()}: '
                             f'{bot.arm.last_goal_status()} {reason}')
+    if opts.turn_file:
+        with open(opts.turn_file, 'w', encoding='utf-8') as f:
+            f.write(str(opts.index + 1))
     robot_shutdown()
     print(json.dumps({'index': opts.index, 'moves': opts.moves, 'succeeded': ok,
                       'tracking_aborts': sum('tracking error' in f or 'did not settle' in f
                                              for f in failures),
                       'goals': goals, 'failures': failures, 'connect_s': connect_s,
-                      'waited_for_subscribers_s': waited_s,
+                      'waited_for_subscribers_s': waited_s, 'waited_for_turn_s': turn_wait,
                       'seconds': time.monotonic() - t0}), flush=True)
     return 0 if ok == opts.moves else 1
+
+
+def _read(path: str) -> str:
+    try:
+        with open(path, encoding='utf-8') as f:
+            return f.read().strip()
+    except OSError:
+        return ''
 
 
 if __name__ == '__main__':

@@ -320,12 +320,16 @@ def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int
     while probe.pub_goal.get_subscription_count() < 2 and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(1.0)
+    # the scripts start (and connect) together, then drive the arm one after the other
+    turn = os.path.join(os.path.dirname(os.path.abspath(bag_dir)), 'turn')
+    with open(turn, 'w', encoding='utf-8') as f:
+        f.write('0')
+    procs = [run_script('client_script.py', '--index', str(i), '--moves', str(moves),
+                        '--turn-file', turn, *script_args) for i in range(scripts)]
     results = []
-    for i in range(scripts):
-        p = run_script('client_script.py', '--index', str(i), '--moves', str(moves),
-                       *script_args)
+    for p in procs:
         try:
-            stdout, _ = p.communicate(timeout=120.0)
+            stdout, _ = p.communicate(timeout=180.0)
         except subprocess.TimeoutExpired:
             p.kill()
             stdout, _ = p.communicate()
