@@ -30,14 +30,14 @@ NODES = ('sim_driver', 'ik_service', 'trajectory_server')
 FULL = 10_000
 
 
-def _fuzz(graph, probe, lim, model, count_for, log) -> dict:
+def _fuzz(graph, probe, lim, model, count_for, log, progress=None, targets_only=None) -> dict:
     from stress.harness import FuzzFailure, fuzz
     from stress.targets import driver_works, goal_works, ik_works, make_targets
     from stress.targets import REDUCED
     params = {n: [p for p in probe.list_parameters(n) if p != 'use_sim_time'] for n in NODES}
     targets = make_targets(probe, lim, params)
     out = {}
-    for name in REDUCED:
+    for name in (targets_only or REDUCED):
         t = targets[name]
         n = count_for(name)
         deaths_before = len(graph.deaths)
@@ -68,7 +68,9 @@ def _fuzz(graph, probe, lim, model, count_for, log) -> dict:
         out[name] = fig
         log(f'  -> tried {fig.get("tried")}, unanswered {fig.get("unanswered")}, deaths '
             f'{len(fig["deaths"])}, violations {fig["violation_count"]}, '
-            f'failure {bool(failure)}')
+            f'failure {bool(failure)}, {fig.get("seconds")} s')
+        if progress is not None:
+            progress(out)
     return out
 
 
@@ -130,13 +132,17 @@ def _load(graph, probe, quick: bool, log) -> dict:
     return out
 
 
-def run(quick: bool = False, only=None, count=None, log=print) -> dict:
+def run(quick: bool = False, only=None, count=None, log=print, output=None,
+        targets=None, base=None) -> dict:
     """
     Run the campaign and return its figures (see the module docstring).
 
     :param quick: reduced sizes (those of the CI suite)
     :param only: None for everything, or a subset of {'fuzz', 'faults', 'load'}
     :param count: inputs per fuzz target (overrides quick/full)
+    :param output: write the figures so far to this JSON file after every step
+    :param targets: fuzz only these targets (names as in ``stress.targets.REDUCED``)
+    :param base: sections of an earlier run to keep (those not run again)
     """
     from px100_control.models.registry import load_robot
     from px100_control.tools.processes import NodeProcess
@@ -154,19 +160,26 @@ def run(quick: bool = False, only=None, count=None, log=print) -> dict:
 
     graph = Graph(lambda name, *args: NodeProcess(name, args))
     probe = Probe(lim)
-    result = {'quick': quick, 'domain': os.environ.get('ROS_DOMAIN_ID'),
-              'started': time.strftime('%Y-%m-%dT%H:%M:%S')}
+    result = dict(base or {})
+    result.update({'quick': quick, 'domain': os.environ.get('ROS_DOMAIN_ID'),
+                   'started': time.strftime('%Y-%m-%dT%H:%M:%S')})
     t0 = time.monotonic()
     try:
         for n in NODES:
             graph.start(n)
         probe.wait_ready(NODES, timeout=60.0)
+        def progress(part, key):
+            result[key] = part
+            if output:
+                write(result, output)
+
         if 'fuzz' in only:
-            result['fuzz'] = _fuzz(graph, probe, lim, model, count_for, log)
+            result['fuzz'] = _fuzz(graph, probe, lim, model, count_for, log,
+                                   lambda part: progress(part, 'fuzz'), targets)
         if 'faults' in only:
-            result['faults'] = _faults(graph, probe, lim, model, log)
+            progress(_faults(graph, probe, lim, model, log), 'faults')
         if 'load' in only:
-            result['load'] = _load(graph, probe, quick, log)
+            progress(_load(graph, probe, quick, log), 'load')
     finally:
         stop_codes = {}
         for name, p in graph.procs.items():
@@ -206,6 +219,14 @@ def summarize(result: dict) -> dict:
     return s
 
 
+def write(result: dict, path: str) -> None:
+    """Write the figures (with their summary) to a JSON file."""
+    result = dict(result, summary=summarize(result))
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, 'w', encoding='utf-8') as f:
+        json.dump(result, f, indent=1, default=str)
+
+
 def main(argv=None) -> int:
     """Run the campaign, print the summary and write benchmarks/results/robustness.json."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
@@ -213,15 +234,19 @@ def main(argv=None) -> int:
     parser.add_argument('--only', action='append', choices=('fuzz', 'faults', 'load'))
     parser.add_argument('--count', type=int, help='inputs per fuzz target')
     parser.add_argument('--output', default=RESULTS)
+    parser.add_argument('--target', action='append', help='fuzz only this target (repeatable)')
     opts = parser.parse_args(argv)
 
     def log(text):
         print(f'[robustness {time.strftime("%H:%M:%S")}] {text}', flush=True)
 
-    result = run(quick=opts.quick, only=opts.only, count=opts.count, log=log)
-    os.makedirs(os.path.dirname(opts.output), exist_ok=True)
-    with open(opts.output, 'w', encoding='utf-8') as f:
-        json.dump(result, f, indent=1, default=str)
+    base = {}
+    if opts.only and os.path.exists(opts.output):  # add these sections to an earlier run
+        with open(opts.output, encoding='utf-8') as f:
+            base = {k: v for k, v in json.load(f).items() if k in ('fuzz', 'faults', 'load')}
+    result = run(quick=opts.quick, only=opts.only, count=opts.count, log=log,
+                 output=opts.output, targets=opts.target, base=base)
+    write(result, opts.output)
     print(json.dumps(result['summary'], indent=1))
     print(f'written to {opts.output}')
     return 0
