@@ -184,3 +184,18 @@ def test_reindex_command_errors(tmp_path, capsys):
     assert reindex.main([str(tmp_path / 'missing')]) == 1
     err = capsys.readouterr().err
     assert err.startswith('bag_reindex: error:') and 'Traceback' not in err
+
+
+def test_undecodable_type_definition(tmp_path):
+    """A topic whose stored definition cannot be parsed: decoding names the type and the bag."""
+    from px100_control.bag.writer import BagWriter
+    bag_dir = str(tmp_path / 'odd')
+    with BagWriter(bag_dir) as bag:
+        bag.add_topic('/odd', 'odd_msgs/msg/Thing', msgdef='float64[ broken ] ]] x\n',
+                      type_description_hash='')
+        bag.write('/odd', b'\x00\x01\x00\x00' + bytes(8), 1)
+    with BagReader(bag_dir) as reader:
+        assert reader.topics == {'/odd': 'odd_msgs/msg/Thing'}
+        assert reader.summary().message_count == 1  # raw access still works
+        with pytest.raises(BagError, match=r"definition of 'odd_msgs/msg/Thing' cannot be"):
+            list(reader.iter_decoded(['/odd']))

@@ -6,7 +6,7 @@ topics stay latched, --topics/--remap/--start-offset/--loop work, and bad input 
 line and exit status 1.
 """
 from bag_ros_support import RawListener, wait_until
-from bag_support import decode, joint_state, string, T0_NS
+from bag_support import decode, joint_state, mcap_path, string, T0_NS
 from px100_control.bag import metadata as md
 from px100_control.bag.writer import BagWriter
 import pytest
@@ -52,7 +52,8 @@ def test_replay_bytes_timing_and_latched_topic(
         rclpy_context, spin_node, node_process, replay_bag):
     """Every setpoint arrives once, in order, byte-identical, 0.98 s apart end to end."""
     bag_dir, sent = replay_bag
-    listener = spin_node(RawListener([(SP, JointState)], context=rclpy_context))
+    listener = spin_node(RawListener([(SP, JointState), ('/px100/robot_description', String)],
+                                     context=rclpy_context))
     out = _replay(node_process, bag_dir)
     assert wait_until(lambda: listener.count(SP) >= N, 10.0)
     got = listener.got[SP]
@@ -63,6 +64,8 @@ def test_replay_bytes_timing_and_latched_topic(
     assert sorted(gaps)[len(gaps) // 2] == pytest.approx(0.02, abs=0.008)
     assert "'/tf' has type 'tf2_msgs/msg/TFMessage', which is not installed" in out
     assert '[replay] done: 51 messages' in out  # /tf not replayed
+    assert listener.count('/px100/robot_description') == 1
+    assert 'no subscriber' not in out
 
 
 def test_rate_topics_remap_offset(rclpy_context, spin_node, node_process, replay_bag):
@@ -107,7 +110,6 @@ def test_loop_repeats_until_stopped(rclpy_context, spin_node, node_process, repl
 
 
 @pytest.mark.parametrize('args, message', [
-    (['{missing}'], 'no such bag'),
     (['{bag}', '--topics', '/tf'], "type 'tf2_msgs/msg/TFMessage', which is not installed"),
     (['{bag}', '--topics', '/nope'], "no topic '/nope'"),
     (['{bag}', '--remap', '/nope:=/x'], 'cannot remap /nope'),
@@ -115,18 +117,30 @@ def test_loop_repeats_until_stopped(rclpy_context, spin_node, node_process, repl
     (['{bag}', '--rate', '0'], 'rate must be a finite number > 0'),
     (['{bag}', '--start-offset', '9'], 'beyond the end of the bag'),
     (['{empty}'], 'empty file'),
+    (['{truncated}'], 'truncated'),
 ])
-def test_bad_input(node_process, replay_bag, tmp_path, args, message):
-    """One error line naming the problem, exit status 1, no traceback."""
+def test_bad_input(replay_bag, tmp_path, capsys, args, message):
+    """One error line naming the problem, exit status 1, no traceback (main() in-process)."""
+    from px100_control.ros.replayer_node import main
     bag_dir, _ = replay_bag
     empty = tmp_path / 'e.mcap'
     empty.write_bytes(b'')
-    args = [a.format(missing=str(tmp_path / 'missing'), bag=bag_dir, empty=str(empty))
-            for a in args]
-    proc = node_process('replay', *args)
-    assert proc.proc.wait(START_TIMEOUT) == 1, proc.output()
+    truncated = tmp_path / 't.mcap'
+    with open(mcap_path(bag_dir), 'rb') as f:
+        truncated.write_bytes(f.read()[:3000])
+    args = [a.format(bag=bag_dir, empty=str(empty), truncated=str(truncated)) for a in args]
+    assert main(['replay', *args]) == 1
+    err = capsys.readouterr().err
+    assert 'replay: error: ' in err and message in err, err
+    assert 'Traceback' not in err
+
+
+def test_replay_executable_bad_input(node_process, tmp_path):
+    """The installed executable: a missing bag is one error line and exit status 1."""
+    proc = node_process('replay', str(tmp_path / 'missing'))
+    assert proc.proc.wait(START_TIMEOUT) == 1
     out = proc.output()
-    assert 'replay: error: ' in out and message in out, out
+    assert 'replay: error: ' in out and 'no such bag' in out, out
     assert 'Traceback' not in out
 
 
