@@ -139,10 +139,11 @@ class TrajectoryServerNode(Node):
         self._stale_checks = 0
         self._history: 'OrderedDict[tuple, GoalStatus]' = OrderedDict()
 
+        # deep enough that a reader stalled for a moment loses no setpoint (200 Hz)
         self._pub_setpoint = self.create_publisher(
-            JointState, robot_topic(self, 'commands/joint_setpoints'), 10)
+            JointState, robot_topic(self, 'commands/joint_setpoints'), 100)
         self._pub_feedback = self.create_publisher(
-            JointState, robot_topic(self, 'trajectory/feedback'), 10)
+            JointState, robot_topic(self, 'trajectory/feedback'), 100)
         self._pub_status = self.create_publisher(
             GoalStatusArray, robot_topic(self, 'trajectory/status'), STATUS_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)

@@ -29,7 +29,8 @@ class FakeDriver(Node):
         self.lock = threading.Lock()
         self.setpoints = []  # (header stamp ns, names, positions, velocities)
         self.pub = self.create_publisher(JointState, '/px100/joint_states', 10)
-        self.create_subscription(JointState, '/px100/commands/joint_setpoints', self._on_sp, 50)
+        self.create_subscription(JointState, '/px100/commands/joint_setpoints', self._on_sp,
+                                 1000)
         self.create_timer(1.0 / rate, self._tick)
 
     def _on_sp(self, msg):

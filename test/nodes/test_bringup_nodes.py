@@ -44,8 +44,11 @@ def test_bringup_executable_moves_the_arm_and_answers_ik(ros_ctx, spinner, proce
     target = [0.4, -0.6, 0.6, 0.2]
     stamp = client.send(ARM, [(1.5, target)])
     assert client.wait_terminal(stamp, 30.0) == 'SUCCEEDED', client.last_diagnostic(stamp)
-    q = client.measured()
-    assert max(abs(q[j] - v) for j, v in zip(ARM, target)) <= 0.002
+
+    def arrived():
+        q = client.measured()
+        return max(abs(q[j] - v) for j, v in zip(ARM, target)) <= 0.002
+    assert wait_for(arrived, 5.0), client.measured()   # (our reader may lag the driver)
     T = MODEL.fk(np.array(target))
     sol, status = ik.reply(ik.request(matrix_to_pose(T)))
     assert status.level == b'\x00'
