@@ -29,14 +29,21 @@ Goal semantics (what a client relies on):
   takes longer than ``goal_time_tolerance``); ``trajectory/cancel`` makes it CANCELING while the
   arm decelerates to rest (``stop_deceleration``) where it is, then CANCELED; a new goal
   preempts it (CANCELED at once, the new move starting from the current setpoint and velocity).
-  An invalid goal (unknown joint, NaN, out of limits, times not increasing, too fast) is ABORTED
-  at once and nothing of it is sent. A stall (no ``joint_states`` for ``state_timeout``, a
-  tracking error above ``path_tolerance``) is ABORTED.
+  An invalid goal (unknown joint, NaN, out of limits, times not increasing, too fast, or no
+  ``joint_states`` received yet) is ABORTED at once and nothing of it is sent; it does not
+  disturb a running goal. A stall is ABORTED: no ``joint_states`` for ``state_timeout`` (steady
+  clock, so also when a sim clock stops), or a joint farther than ``path_tolerance`` from the
+  setpoints of the ``path_window`` before its measurement's stamp (the reason names the joint,
+  the measured value and the setpoint; the arm is then held where it was measured).
+  Re-sending the running goal's id is ignored (reported on /diagnostics); an id that has ended
+  may be reused.
 - Every terminal status is published on ``/diagnostics`` (DiagnosticArray): name
   ``<robot_name>/trajectory_server``, ``hardware_id`` = the goal id, ``message`` = the reason,
   level OK (SUCCEEDED), WARN (CANCELED) or ERROR (ABORTED); it is logged too.
-- While a goal runs, setpoints (arm joints, position and velocity feed-forward) go to
-  ``commands/joint_setpoints`` at ``rate`` and, identical, to ``trajectory/feedback``.
+- While a goal runs (until its terminal status), setpoints (all arm joints, position and
+  velocity feed-forward, stamped with their sample time) go to ``commands/joint_setpoints`` at
+  ``rate`` and, identical, to ``trajectory/feedback``. Timing follows the node clock
+  (``use_sim_time`` honoured).
 """
 from collections import OrderedDict
 from dataclasses import dataclass, field
