@@ -3,7 +3,8 @@ The README's main job: scripts/pick_and_place_demo.py through the client, end to
 
 Runs the demo as a user would (its own process, in-process nodes) on one of seed 000's objects
 and checks what it promises: the object moved with seed 001's waypoint sequence, an MCAP bag
-with the run's topics, and the two PNG plots.
+with the run's topics, and the two PNG plots. Marked slow (about 25 s): an extra on top of the
+issue's test list.
 """
 import os
 import subprocess
@@ -13,7 +14,7 @@ from client_support import SLOW
 from px100_control.bag.reader import open_bag
 import pytest
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 

@@ -26,7 +26,7 @@ def sim_driver(bot) -> str:
 
 
 def test_gripper_release_and_grasp_reach_the_finger_limits(bot):
-    """release() opens to the upper finger limit, grasp() closes to the lower one."""
+    """release()/open() open to the upper finger limit, grasp()/close() close to the lower one."""
     g = bot.gripper
     assert g.gripper_value == pytest.approx(250.0)
     assert g.left_finger_lower_limit == pytest.approx(LOWER)
@@ -42,11 +42,7 @@ def test_gripper_release_and_grasp_reach_the_finger_limits(bot):
     assert wait_until(lambda: not g.gripper_moving, 1.0)
     assert g.get_gripper_position() < 0.0  # the horn angle of a closed gripper
     assert math.isfinite(g.get_gripper_velocity()) and math.isfinite(g.get_gripper_effort())
-
-
-def test_ros1_open_close_aliases(bot):
-    """gripper.open() / close() (ROS 1 names) are release() / grasp()."""
-    g = bot.gripper
+    # ROS 1 names (seed 000's scripts use them)
     g.open(delay=0.1)
     assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 5.0)
     g.close(delay=0.1)
