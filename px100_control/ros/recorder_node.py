@@ -130,6 +130,7 @@ class RecorderNode(Node):
     :param write_tf: write /tf from joint_states through the URDF
     :param tf_rate: highest /tf rate [Hz]
     :param write_description: write the model URDF as robot_description if none is published
+        (when robot_description is one of the recorded topics)
     :param compression: chunk compression 'zstd', 'lz4' or 'none'
     :param flush_period: longest time [s] a message stays in memory (SIGKILL loses at most that)
     :param rescan_period: graph scan period [s] for new topics
@@ -426,7 +427,8 @@ class RecorderNode(Node):
         now = time.monotonic()
         if (self.write_description and not self._description_seen
                 and self._first_js_at is not None and now - self._first_js_at > 1.5
-                and self.description_topic not in self._subs and self._model_ready.is_set()):
+                and self.description_topic not in self._subs and self._model_ready.is_set()
+                and self._selected(self.description_topic)):
             self._write_model_description()
         if self.duration is not None and now - self.started_at >= self.duration:
             self.request_stop(f'duration {self.duration:g} s reached')
