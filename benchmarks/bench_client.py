@@ -42,25 +42,31 @@ def _stats(values) -> dict:
             'p95': float(np.percentile(a, 95)), 'max': float(a.max()), 'mean': float(a.mean())}
 
 
-def run(quick: bool = False, connect: bool = False, log=print) -> dict:
+def run(quick: bool = False, connect: bool = False, bringup='thread', log=print) -> dict:
     """Measure the client; return the figures (seconds unless named otherwise)."""
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
     n_moves = 6 if quick else 30
     n_ik = 40 if quick else 300
     t0 = time.monotonic()
     bot = InterbotixManipulatorXS('px100', 'arm', 'gripper', moving_time=MOVING_TIME,
-                                  accel_time=0.1, bringup=not connect, connect_timeout=30.0)
+                                  accel_time=0.1, connect_timeout=30.0,
+                                  bringup=False if connect else (
+                                      'process' if bringup == 'process' else True))
     robot_startup()
     construct = time.monotonic() - t0
     try:
+        bot.arm.go_to_home_pose(moving_time=2.0)
         bot.arm.set_joint_positions(POSES[1], moving_time=1.5)
-        blocking, errors, failures = [], [], 0
+        blocking, errors, failures, reasons = [], [], 0, []
         for i in range(n_moves):
             target = POSES[i % 2]
             t = time.monotonic()
             ok = bot.arm.set_joint_positions(target, moving_time=MOVING_TIME)
             blocking.append(time.monotonic() - t)
-            failures += not ok
+            if not ok:
+                failures += 1
+                reasons.append(bot.arm.last_error)
+                bot.arm.set_joint_positions(target, moving_time=2.0)  # back on the script
             errors.append(float(np.max(np.abs(np.array(bot.arm.get_joint_positions())
                                               - target))))
         log(f'blocking set_joint_positions({MOVING_TIME} s): p50 {np.median(blocking):.3f} s')
@@ -88,13 +94,15 @@ def run(quick: bool = False, connect: bool = False, log=print) -> dict:
         robot_shutdown()
     block = _stats(blocking)
     return {
-        'setup': 'in-process bringup' if not connect else 'running nodes',
+        'setup': 'running nodes' if connect else f'bringup ({bringup})',
+        'load_average_1min': os.getloadavg()[0],
         'construct_s': construct,
         'moving_time_s': MOVING_TIME,
         'blocking_return_s': block,
         'blocking_excess_over_moving_time_s': {k: (v - MOVING_TIME if k != 'n' else v)
                                                for k, v in block.items()},
         'blocking_failures': failures,
+        'blocking_failure_reasons': reasons[:3],
         'final_joint_error_rad_max': float(max(errors)),
         'nonblocking_return_s': _stats(nonblocking),
         'ik_execute_false_s': _stats(ik_times),
@@ -109,8 +117,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--quick', action='store_true', help='fewer samples (smoke run)')
     parser.add_argument('--connect', action='store_true', help='use nodes already running')
+    parser.add_argument('--bringup', choices=('thread', 'process'), default='thread',
+                        help='nodes as threads of this process (default) or child processes')
     args = parser.parse_args(argv)
-    figures = run(quick=args.quick, connect=args.connect)
+    figures = run(quick=args.quick, connect=args.connect, bringup=args.bringup)
     figures['quick'] = args.quick
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
     with open(RESULTS, 'w', encoding='utf-8') as f:
