@@ -14,8 +14,10 @@ from bag_ros_support import FakeRobot, wait_until
 from bag_support import decode, mcap_path
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from mcap.exceptions import EndOfFile
+from mcap.reader import make_reader
 from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
+from mcap_ros2.decoder import DecoderFactory
 from px100_control.bag.reader import BagReader
 from px100_control.errors import BagError
 from px100_control.models.registry import load_robot
@@ -84,7 +86,15 @@ def test_record_all_topics_then_sigint(rclpy_context, spin_node, node_process, t
     assert 'px100/ee_gripper_link' in frames
     assert qos['/px100/robot_description'][0].durability.name == 'TRANSIENT_LOCAL'
     assert qos['/px100/joint_states'][0].durability.name == 'VOLATILE'
-    # the mcap library reads the same counts; BagReader's summary agrees
+    # the mcap library (with mcap_ros2's decoder) reads the same messages; BagReader agrees
+    by_topic = {}
+    with open(mcap_path(bag_dir), 'rb') as f:
+        for _, channel, _, decoded in make_reader(
+                f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            by_topic.setdefault(channel.topic, []).append(decoded)
+    assert {k: len(v) for k, v in by_topic.items()} == {k: len(v) for k, v in msgs.items()}
+    assert [m.position[0] for m in by_topic[JS]] == list(range(300))
+    assert by_topic['/px100/robot_description'][0].data == urdf
     with BagReader(bag_dir) as reader:
         summary = reader.summary()
     assert summary.topics['/px100/joint_states'].message_count == 300
