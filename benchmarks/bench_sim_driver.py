@@ -8,8 +8,9 @@ sim_driver speed and timing: simulated seconds per wall second, and publish-peri
   joint_states/ee_pose at 100 Hz and /clock at 250 Hz of simulated time): simulated seconds per
   wall second read from /clock, and the process's CPU share over the window;
 - ``jitter``: the ``sim_driver`` process at real time, ``publish_rate`` 100 Hz: period of
-  joint_states as received here (monotonic clock at the callback) and as stamped by the driver,
-  |period - 10 ms| p50 / p99 / max.
+  joint_states as received here (monotonic clock at the callback) and as stamped by the driver
+  (the nominal sample times: 0 by construction), |period - 10 ms| p50 / p99 / max; and the
+  driver's own send times (in-process node, monotonic clock at each publish).
 
 The machine's load average is recorded with the figures: on a shared 2-core machine they vary
 with what else runs. Writes ``benchmarks/results/sim_driver.json``. Usage (venv + install
@@ -156,6 +157,34 @@ def bench_jitter(seconds: float) -> dict:
         listener.close()
 
 
+def bench_send_jitter(seconds: float) -> dict:
+    """Return the driver's own publish-time jitter at 100 Hz (in-process, send side)."""
+    import rclpy
+    from rclpy.executors import MultiThreadedExecutor
+    from px100_control.ros.sim_driver_node import SimDriverNode
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = SimDriverNode(context=ctx)
+    executor = MultiThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        time.sleep(1.0)
+        n0 = len(node.publish_times)
+        time.sleep(seconds)
+        sent = list(node.publish_times)[n0:]
+    finally:
+        executor.shutdown(timeout_sec=2.0)
+        node.destroy_node()
+        ctx.try_shutdown()
+        thread.join(5.0)
+    dev = np.abs(np.diff(sent) - 0.01) * 1e3
+    return {'messages': len(sent), 'p50_ms': round(float(np.percentile(dev, 50)), 3),
+            'p99_ms': round(float(np.percentile(dev, 99)), 3),
+            'max_ms': round(float(dev.max()), 3)}
+
+
 def run(quick: bool = False, log=print) -> dict:
     """Run the three measurements; return the figures."""
     load0 = os.getloadavg()[0]
@@ -166,6 +195,8 @@ def run(quick: bool = False, log=print) -> dict:
     log(f"unthrottled node: {figures['unthrottled']}")
     figures['jitter_100hz'] = bench_jitter(5.0 if quick else 20.0)
     log(f"jitter at 100 Hz: {figures['jitter_100hz']}")
+    figures['jitter_100hz']['sent'] = bench_send_jitter(5.0 if quick else 20.0)
+    log(f"send-side jitter at 100 Hz: {figures['jitter_100hz']['sent']}")
     figures['load_average_1min'] = [round(load0, 2), round(os.getloadavg()[0], 2)]
     figures['cpu_count'] = os.cpu_count()
     figures['quick'] = quick
@@ -175,6 +206,7 @@ def run(quick: bool = False, log=print) -> dict:
     eff4 = figures['unthrottled']['divider_4'].get('sim_s_per_driver_cpu_s')
     rec = figures['jitter_100hz'].get('received', {})
     stp = figures['jitter_100hz'].get('stamped', {})
+    snt = figures['jitter_100hz'].get('sent', {})
     exact, default = phys['divider_1'], phys['divider_4']
     figures['markdown'] = '\n'.join([
         '| sim_driver | value |', '| --- | --- |',
@@ -186,6 +218,8 @@ def run(quick: bool = False, log=print) -> dict:
         f'| unthrottled node, simulated s per driver CPU s (divider 4) | {eff4} |',
         '| joint_states 100 Hz, received period jitter p50 / p99 [ms] | '
         f'{rec.get("p50_ms")} / {rec.get("p99_ms")} |',
+        '| joint_states 100 Hz, send-time period jitter p50 / p99 [ms] | '
+        f'{snt.get("p50_ms")} / {snt.get("p99_ms")} |',
         '| joint_states 100 Hz, stamped period jitter p50 / p99 [ms] | '
         f'{stp.get("p50_ms")} / {stp.get("p99_ms")} |',
         f'| load average (start, end) on {os.cpu_count()} cores | '

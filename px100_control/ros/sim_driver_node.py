@@ -31,6 +31,7 @@ Parameters (defaults in config/px100.yaml, validated live): ``publish_rate`` [Hz
 ``gains_units`` (read-only: ``si`` or ``dynamixel``: p/i/d as Position P/I/D Gain registers),
 ``gains.<joint>.p|i|d|i_clamp|u_clamp|ff_velocity`` for every arm joint and the gripper.
 """
+import collections
 import math
 import threading
 import time
@@ -169,6 +170,8 @@ class SimDriverNode(Node):
         if self._master:
             self.pub_clock.publish(ClockMsg(clock=_time_msg(0)))
         self.achieved_rtf = math.nan
+        #: monotonic wall times [s] of the last joint_states publications (for timing checks)
+        self.publish_times = collections.deque(maxlen=10000)
         self._jobs = set()
         self._jobs_cv = threading.Condition()
         self._stopping = False
@@ -538,6 +541,7 @@ class SimDriverNode(Node):
 
     # --- publishing ----------------------------------------------------------------------------
     def _publish_state(self, stamp_ns: int) -> None:
+        self.publish_times.append(time.monotonic())
         sample = self.sim.joint_state()
         stamp = _time_msg(stamp_ns)
         js = JointState()
