@@ -39,8 +39,9 @@ from px100_control.client.robot import InterbotixException
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import inv_transform, pose_error
 
-#: simulated seconds trajectory_server may take after a move to settle (its goal_time_tolerance)
-SETTLE_ALLOWANCE = 1.0
+#: simulated seconds trajectory_server may take after a move to settle (its goal_time_tolerance:
+#: 1 s by default, 2 s on the nodes the client starts itself)
+SETTLE_ALLOWANCE = 2.0
 #: IK acceptance tolerances of Interbotix (modern_robotics eomg, ev): [rad], [m]
 EOMG = 1e-3
 EV = 1e-3
@@ -216,7 +217,7 @@ class InterbotixArmXSInterface:
         """
         Return the wall-time budget [s] of a move lasting ``duration`` simulated seconds.
 
-        trajectory_server reports within duration + its settling allowance (1 s by default)
+        trajectory_server reports within duration + its settling allowance (goal_time_tolerance)
         of simulated time; the budget adds 25 % and 2 s of wall time for a loaded machine.
         """
         return 1.25 * (duration + SETTLE_ALLOWANCE) / self.core.real_time_factor + 2.0

@@ -383,19 +383,17 @@ class InterbotixRobotXSCore:
                 p.event.set()
 
     def _diagnostics_cb(self, msg: DiagnosticArray) -> None:
+        # trajectory_server: one status per ended goal, hardware_id = the goal id
         with self._pending_lock:
             if not self._goals:
                 return
             for st in msg.status:
                 if st.level == DiagnosticStatus.OK:
                     continue
-                text = ' '.join([st.name, st.hardware_id, st.message] +
-                                [f'{kv.key} {kv.value}' for kv in st.values])
-                for p in self._goals.values():
-                    if p.status in TERMINAL and p.reason:
-                        continue
-                    if stamp_id(_time_of(p.key)) in text:
-                        p.reason = st.message
+                key = _parse_id(st.hardware_id)
+                p = self._goals.get(key) if key is not None else None
+                if p is not None and not p.reason:
+                    p.reason = st.message
 
     # ---------------------------------------------------------------- helpers
     def get_node(self):

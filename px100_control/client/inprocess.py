@@ -16,12 +16,13 @@ from rclpy.parameter import Parameter
 #: - ik_service 'strict': the whole pose or nothing, which is what Interbotix's IK guarantees
 #:   (eomg/ev); in 'pitch' mode a 4-DOF arm may be answered with the roll-flipped "over the top"
 #:   configuration (same tool x axis, gripper upside down), which the client would refuse;
-#: - trajectory_server path_tolerance 0.5 rad (default 0.2): the simulated servos track a move
-#:   within ~0.02 rad, but on a loaded machine the simulation can fall behind the clock for a
-#:   moment and a 0.2 rad check aborts moves that then complete fine; blocked joints and a dead
-#:   driver are still detected (tracking, settling and state timeouts).
+#: - trajectory_server path_tolerance 0.5 rad (default 0.2) and goal_time_tolerance 2 s
+#:   (default 1): the simulated servos track a move within ~0.02 rad and settle in a fraction of
+#:   a second, but on a loaded machine the simulation can fall behind the clock for a moment and
+#:   the tight defaults abort moves that then complete fine; blocked joints and a dead driver
+#:   are still detected (tracking, settling and state timeouts).
 NODE_PARAMETERS = {'ik_service': {'orientation_mode': 'strict'},
-                   'trajectory_server': {'path_tolerance': 0.5}}
+                   'trajectory_server': {'path_tolerance': 0.5, 'goal_time_tolerance': 2.0}}
 
 
 class InProcessBringup:

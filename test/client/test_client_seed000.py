@@ -39,6 +39,7 @@ def spy(monkeypatch):
         last = self.core.ee_pose
         wait_until(lambda: self.core.ee_pose is not last, 1.0)
         calls.append({'command': np.asarray(joint_positions, dtype=float).copy(), 'ok': ok,
+                      'error': '' if ok else self.last_error,
                       'measured': np.array(self.get_joint_positions()),
                       'ee': self.core.measured_ee_pose()[:3, 3].copy(),
                       'fk': self.core.model.fk(self.get_joint_commands())[:3, 3]})
@@ -54,7 +55,8 @@ def spy(monkeypatch):
 def _check(calls, targets_mm):
     assert len(calls) == len(targets_mm)
     for call, target in zip(calls, targets_mm):
-        assert call['ok'] is True, f'command {call["command"]} for {target} mm was refused'
+        assert call['ok'] is True, \
+            f'command {call["command"]} for {target} mm failed: {call["error"]}'
         np.testing.assert_allclose(call['measured'], call['command'], atol=0.005)
         assert np.linalg.norm(call['ee'] - call['fk']) < 1e-3
         seed_err_mm = np.linalg.norm(call['ee'] * 1000 - np.asarray(target, float))
