@@ -92,14 +92,18 @@ def run(quick: bool = False, connect: bool = False, bringup='thread', log=print)
             ' ms')
     finally:
         robot_shutdown()
+    rtf = bot.core.real_time_factor
+    expected = MOVING_TIME / rtf
     block = _stats(blocking)
     return {
         'setup': 'running nodes' if connect else f'bringup ({bringup})',
         'load_average_1min': os.getloadavg()[0],
         'construct_s': construct,
         'moving_time_s': MOVING_TIME,
+        'real_time_factor': rtf,
+        'expected_wall_s': expected,
         'blocking_return_s': block,
-        'blocking_excess_over_moving_time_s': {k: (v - MOVING_TIME if k != 'n' else v)
+        'blocking_excess_over_moving_time_s': {k: (v - expected if k != 'n' else v)
                                                for k, v in block.items()},
         'blocking_failures': failures,
         'blocking_failure_reasons': reasons[:3],
