@@ -93,7 +93,7 @@ def test_nodes_dying_mid_use_fail_within_bounded_time(node_process):
         elapsed = time.monotonic() - t0
         timer.join()
         assert ok is False
-        assert 0.6 <= elapsed < 3.0, elapsed
+        assert 0.6 <= elapsed < 5.0, elapsed
         assert 'joint' in bot.arm.last_error and ('sim_driver' in bot.arm.last_error
                                                   or 'driver' in bot.arm.last_error)
         t0 = time.monotonic()
