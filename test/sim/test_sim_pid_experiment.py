@@ -18,7 +18,7 @@ def experiment():
 
 @pytest.fixture(scope='module')
 def results(experiment):
-    return experiment.run_experiment(duration=4.0, integral_duration=30.0)
+    return experiment.run_experiment(duration=3.0, integral_duration=15.0)
 
 
 def test_table_has_the_seed_pattern(experiment, results):
