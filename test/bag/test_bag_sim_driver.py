@@ -6,7 +6,9 @@ robot_description latched, /tf through the published URDF) and reads back in ros
 ``inspect`` plots it. Replaying its setpoints into a fresh sim_driver reproduces its
 joint_states: within REPRO_TOL_MOVING rad while the arm moves (the setpoints' delivery jitters by
 milliseconds: 5 ms at the 0.8 rad/s peak of the move is 4 mrad) wherever both drivers kept real
-time, and within REPRO_TOL_SETTLED rad once it has settled.
+time and the setpoints arrived on time, and within REPRO_TOL_SETTLED rad once it has settled. On
+a machine too loaded for that (fewer than MIN_COMPARED samples of the move comparable) the moving
+part is skipped, with the reason; the settled check always runs.
 """
 import os
 import time
@@ -34,10 +36,14 @@ RATE_HZ = 50.0
 #: replayed vs recorded joint_states, while moving and once settled [rad]
 REPRO_TOL_MOVING = 0.05
 REPRO_TOL_SETTLED = 0.005
-#: a joint_states gap above MAX_GAP_S means the driver fell behind real time; SETTLE_S after it
-#: the runs are not compared
-MAX_GAP_S = 0.1
+#: a joint_states gap above MAX_GAP_S means the driver fell behind real time, a replayed
+#: setpoint more than MAX_LATE_S off its recorded timing was delivered late; SETTLE_S after
+#: either the runs are not compared
+MAX_GAP_S = 0.05
+MAX_LATE_S = 0.02
 SETTLE_S = 0.3
+#: joint_states samples (at 100 Hz) that must be comparable for the moving-part check
+MIN_COMPARED = 25
 
 
 def _min_jerk(s):
@@ -201,6 +207,12 @@ def test_replayed_setpoints_reproduce_joint_states(recorded_run, rclpy_context, 
     # where a driver could not keep real time (a joint_states gap > MAX_GAP_S: its physics
     # then ran in one late chunk), the runs are not comparable for SETTLE_S afterwards
     healthy = window & _real_time(ta, ta) & _real_time(ta, tb)
+    # and where the setpoints reached the fresh driver on time (a starved replayer or DDS
+    # delivers late): replayed setpoint k vs recorded setpoint k, relative to the first
+    late = np.abs((np.array(sp_b) - sp_b[0]) - (np.array(sp_a) - sp_a[0])) * 1e-9 > MAX_LATE_S
+    for k in np.nonzero(late)[0]:
+        t_late = (sp_a[k] - sp_a[0]) * 1e-9
+        healthy &= ~((ta >= t_late) & (ta <= t_late + SETTLE_S))
     coverage = healthy.sum() / max(1, window.sum())
     err = np.max(np.abs(np.column_stack([np.interp(ta[healthy], tb, qb[:, j])
                                          for j in range(4)]) - qa[healthy]), axis=0) \
@@ -209,9 +221,10 @@ def test_replayed_setpoints_reproduce_joint_states(recorded_run, rclpy_context, 
     print(f'replay reproduction: max |q_replay - q_recorded| per joint {err} rad over '
           f'{100 * coverage:.0f} % of the move (real-time part); settled {settled} rad')
     assert np.all(settled < REPRO_TOL_SETTLED), settled
-    if coverage < 0.5:
+    if healthy.sum() < MIN_COMPARED:
         pytest.skip(f'sim_driver could not run in real time on this machine (only '
-                    f'{100 * coverage:.0f} % of the move comparable); settled state agreed')
+                    f'{healthy.sum()} samples, {100 * coverage:.0f} % of the move comparable); '
+                    'settled state agreed')
     assert np.all(err < REPRO_TOL_MOVING), err
 
 
