@@ -129,14 +129,20 @@ class SetpointCommand:
     efforts: Dict[str, float] = field(default_factory=dict)
 
 
+def _short(name: str, limit: int = 64) -> str:
+    """Return a joint name cut to ``limit`` characters for messages."""
+    return name if len(name) <= limit else name[:limit] + f'... ({len(name)} chars)'
+
+
 def _finite(values, what: str) -> List[float]:
     try:
         out = [float(v) for v in values]
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(f'{what} is not numeric') from exc
-    bad = [v for v in out if not math.isfinite(v)]
-    if bad:
-        raise InvalidInputError(f'{what} contains NaN or inf: {out}')
+    for i, v in enumerate(out):
+        if not math.isfinite(v):
+            shown = out if len(out) <= 8 else f'{len(out)} values'
+            raise InvalidInputError(f'{what} contains NaN or inf (index {i}: {v}): {shown}')
     return out
 
 
@@ -161,10 +167,11 @@ def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
         for n in names:  # linear: names.count() per name stalled the node on huge input
             (dup if n in seen else seen).add(n)
         dup = sorted(dup)
-        raise InvalidInputError(f'duplicate joint names {dup}')
+        more = f' and {len(dup) - 10} more' if len(dup) > 10 else ''
+        raise InvalidInputError(f'duplicate joint names {[_short(d) for d in dup[:10]]}{more}')
     for n in names:
         if n not in known:
-            raise UnknownJointError(n, known)
+            raise UnknownJointError(_short(n), known)
     for what, arr in (('position', position), ('velocity', velocity), ('effort', effort)):
         if len(arr) not in (0, len(names)):
             raise InvalidInputError(f'{len(names)} joint names but {len(arr)} {what} values')

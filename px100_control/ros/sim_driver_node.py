@@ -575,7 +575,9 @@ class SimDriverNode(Node):
                                   name=f'{self.get_fully_qualified_name()}: joint_setpoints',
                                   message=f'setpoint refused: {reason}',
                                   hardware_id=robot_name(self) or self.model.name)
-        status.values = [KeyValue(key='names', value=','.join(str(n) for n in names))]
+        names = [str(n) for n in names]
+        shown = ','.join(names[:20]) + (f',... ({len(names)} names)' if len(names) > 20 else '')
+        status.values = [KeyValue(key='names', value=shown)]
         diag = DiagnosticArray(status=[status])
         diag.header.stamp = self.get_clock().now().to_msg()
         self.pub_diag.publish(diag)
