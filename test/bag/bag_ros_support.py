@@ -48,7 +48,12 @@ class FakeRobot(Node):
 
 
 class RawListener(Node):
-    """Subscribes raw to topics; keeps (monotonic arrival time, bytes) per topic."""
+    """
+    Subscribes raw to topics; keeps (publication time [s], bytes) per topic.
+
+    The publication time is the DDS source timestamp (when the publisher sent it), so a slow
+    executor in this process does not distort the timing seen.
+    """
 
     def __init__(self, topics, name='raw_listener', qos=None, **kwargs):
         super().__init__(name, **kwargs)
@@ -59,9 +64,10 @@ class RawListener(Node):
                                      raw=True)
 
     def _cb(self, topic):
-        def cb(data):
+        def cb(data, info):
+            t = (info.get('source_timestamp') or time.time_ns()) * 1e-9
             with self.lock:
-                self.got[topic].append((time.monotonic(), bytes(data)))
+                self.got[topic].append((t, bytes(data)))
         return cb
 
     def count(self, topic) -> int:
