@@ -32,6 +32,7 @@ from geometry_msgs.msg import PoseArray, PoseStamped
 from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
 import rclpy
 from rclpy.executors import MultiThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -298,7 +299,8 @@ class Probe:
         self.lim = lim
         self.ns = f'/{robot_name}'
         self.ctx = rclpy.Context()
-        rclpy.init(context=self.ctx)
+        # no rclpy SIGINT handler: Ctrl-C must interrupt a campaign (and stop the nodes)
+        rclpy.init(context=self.ctx, signal_handler_options=SignalHandlerOptions.NO)
         self.node = Node(node_name, context=self.ctx)
         self.executor = MultiThreadedExecutor(num_threads=4, context=self.ctx)
         self.executor.add_node(self.node)
