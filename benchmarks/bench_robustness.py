@@ -168,6 +168,7 @@ def run(quick: bool = False, only=None, count=None, log=print, output=None,
         for n in NODES:
             graph.start(n)
         probe.wait_ready(NODES, timeout=60.0)
+
         def progress(part, key):
             result[key] = part
             if output:

@@ -8,11 +8,8 @@ goal and setpoint they caused found in the bag.
 import json
 import os
 
-import pytest
-
 from .harness import full_mode, stress_size
 from .scenarios import ik_load, scripts_with_recorder
-
 
 
 FIGURES = {}
