@@ -3,7 +3,8 @@ A user script driving the arm through the Interbotix-compatible client (run as a
 
 It connects, makes ``--moves`` joint moves (a 2 s move near home, then short moves around it; a
 different pattern per ``--index``), then disconnects. Prints one JSON line: moves tried and
-succeeded, and the ids (``sec.nanosec`` stamps) of the goals it sent, so a test can look for each one in a bag.
+succeeded, and the ids (``sec.nanosec`` stamps) of the goals it sent, so a test can look for
+each one in a bag.
 Usage: ``python client_script.py --index I --moves N [--moving-time S]``.
 """
 import argparse
