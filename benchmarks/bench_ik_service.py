@@ -38,6 +38,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
+from px100_control.ros.common import make_executor  # noqa: E402 - after the path fix
+
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'ik_service.json')
 ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']
 
@@ -228,7 +230,7 @@ def null_server() -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticStatus
     from geometry_msgs.msg import PoseStamped
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from px100_control.ros.ik_service_node import parse_pose_stamped, REQUEST_QOS
@@ -247,10 +249,11 @@ def null_server() -> int:
         pub_st.publish(st)
     node.create_subscription(PoseStamped, '/px100/ik/request', on_request, REQUEST_QOS,
                              raw=True)
-    executor = SingleThreadedExecutor()
+    executor = make_executor()
     executor.add_node(node)
     try:
-        executor.spin()
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     node.destroy_node()
@@ -258,10 +261,18 @@ def null_server() -> int:
     return 0
 
 
+def _spin(executor, ctx) -> None:
+    """Spin until the context shuts down (EventsExecutor.spin() would not return)."""
+    try:
+        while ctx.ok():
+            executor.spin_once(timeout_sec=0.1)
+    except Exception:  # noqa: B902 - context shut down under the executor
+        pass
+
+
 def bench_ik(quick: bool, null: bool = False) -> dict:
     """Run the ik_service benchmark rounds (1 client, 8 clients); null: the null server."""
     import rclpy
-    from rclpy.executors import SingleThreadedExecutor
     from px100_control.ros.ik_service_node import REQUEST_QOS
     poses = _targets(500)
     if null:
@@ -272,8 +283,8 @@ def bench_ik(quick: bool, null: bool = False) -> dict:
         server = _start('px100_control.ros.ik_service_node')
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
-    executor = SingleThreadedExecutor(context=ctx)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    executor = make_executor(context=ctx)
+    spinner = threading.Thread(target=_spin, args=(executor, ctx), daemon=True)
     spinner.start()
     out = {}
     try:
@@ -293,7 +304,6 @@ def bench_ik(quick: bool, null: bool = False) -> dict:
 def bench_setpoint_jitter(quick: bool) -> dict:
     """Run one trajectory goal against a joint-state echo; return the setpoint period stats."""
     import rclpy
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -324,9 +334,9 @@ def bench_setpoint_jitter(quick: bool) -> dict:
     pub_goal = node.create_publisher(JointTrajectory, '/px100/trajectory/goal', 10)
     node.create_subscription(JointState, '/px100/commands/joint_setpoints', on_setpoint, 100)
     node.create_timer(0.01, publish_state)
-    executor = SingleThreadedExecutor(context=ctx)
+    executor = make_executor(context=ctx)
     executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner = threading.Thread(target=_spin, args=(executor, ctx), daemon=True)
     spinner.start()
     duration = 2.0 if quick else 5.0
     try:

@@ -4,11 +4,12 @@ In-process bringup: sim_driver, ik_service and trajectory_server spun inside the
 ``InterbotixManipulatorXS(..., bringup=True)`` (or env ``PX100_BRINGUP=1``) uses this so a
 script is the only command to run. The nodes come from :func:`px100_control.ros.bringup.
 create_nodes` (the same ones ``ros2 run px100_control bringup`` starts), live in the client's
-rclpy context, and spin in their own executor thread; :func:`robot_shutdown` stops them.
+rclpy context, and spin in their own executor thread (rclpy's EventsExecutor by default, see
+:func:`px100_control.ros.common.make_executor`); :func:`robot_shutdown` stops them.
 """
 from typing import List, Optional
 
-from rclpy.executors import MultiThreadedExecutor
+from px100_control.ros.common import make_executor
 from rclpy.parameter import Parameter
 
 
@@ -44,7 +45,7 @@ class InProcessBringup:
         self.parameters = dict(parameters or {})
         self.kwargs = kwargs
         self.nodes: List = []
-        self.executor: Optional[MultiThreadedExecutor] = None
+        self.executor = None
         self.thread = None  # robot.SpinThread
 
     def start(self, context=None) -> None:
@@ -79,7 +80,7 @@ class InProcessBringup:
                 if node.has_parameter(name):
                     node.set_parameters([Parameter(name, value=value)])
         from px100_control.client.robot import SpinThread
-        self.executor = MultiThreadedExecutor(context=context)
+        self.executor = make_executor(context=context)
         for n in self.nodes:
             self.executor.add_node(n)
         self.thread = SpinThread(self.executor, 'px100_bringup').start()

@@ -3,8 +3,8 @@ Lifecycle of the Interbotix-compatible client: one global node spun in a backgro
 
 Mirrors ``interbotix_common_modules.common_robot.robot`` (humble/jazzy): a global
 :class:`InterbotixRobotNode` named ``interbotix_robot_manipulation``, :func:`robot_startup`
-(spin it in a daemon thread with a MultiThreadedExecutor) and :func:`robot_shutdown` (stop,
-destroy, ``rclpy`` shutdown).
+(spin it in a daemon thread; executor from :func:`px100_control.ros.common.make_executor`)
+and :func:`robot_shutdown` (stop, destroy, ``rclpy`` shutdown).
 
 Differences from Interbotix (documented, on purpose):
 
@@ -23,7 +23,8 @@ from typing import Optional
 
 import rclpy
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from px100_control.ros.common import make_executor
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 
@@ -97,7 +98,7 @@ class _Runtime:
         self.lock = threading.RLock()
         self.node: Optional[Node] = None
         self.owns_context = False
-        self.executor: Optional[MultiThreadedExecutor] = None
+        self.executor = None  # make_executor()
         self.thread = None  # SpinThread
         self.spun_nodes = []
         self.startup_requested = False
@@ -196,7 +197,7 @@ def ensure_spinning(node: Node) -> None:
         if node.executor is not None and node.executor is not _RT.executor:
             return
         if _RT.executor is None:
-            _RT.executor = MultiThreadedExecutor(num_threads=4, context=node.context)
+            _RT.executor = make_executor(context=node.context)
         _RT.executor.add_node(node)
         _RT.spun_nodes.append(node)
         if _RT.thread is None or not _RT.thread.is_alive():

@@ -3,13 +3,13 @@ bringup: sim_driver, ik_service and trajectory_server in one process.
 
 For machines without ``ros2 launch``: ``ros2 run px100_control bringup --ros-args -p
 robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all three nodes
-(a params file addresses each by its node name); they spin in one MultiThreadedExecutor, each
-node's callbacks serialised in its own default callback group.
+(a params file addresses each by its node name); they spin in one executor
+(:func:`px100_control.ros.common.make_executor`: rclpy's EventsExecutor by default).
 """
 import sys
 from typing import List
 
-from px100_control.ros.common import parse_cli
+from px100_control.ros.common import make_executor, parse_cli
 
 
 def create_nodes(**node_kwargs) -> List:
@@ -31,7 +31,7 @@ def create_nodes(**node_kwargs) -> List:
 def main(args=None) -> int:
     """Run the three nodes until SIGINT (``ros2 run px100_control bringup``)."""
     import rclpy
-    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+    from rclpy.executors import ExternalShutdownException
 
     _, argv = parse_cli('Run sim_driver, ik_service and trajectory_server of px100_control in '
                         'one process.', args)
@@ -39,10 +39,11 @@ def main(args=None) -> int:
     nodes = []
     try:
         nodes = create_nodes()
-        executor = MultiThreadedExecutor()
+        executor = make_executor()
         for node in nodes:
             executor.add_node(node)
-        executor.spin()
+        while rclpy.ok():       # not spin(): see common.spin_node
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -458,8 +458,7 @@ class IkServiceNode(Node):
 
 def main(args=None):
     """Run the ik_service node (``ros2 run px100_control ik_service``)."""
-    from rclpy.executors import SingleThreadedExecutor
-    return spin_node(lambda options: IkServiceNode(), args, executor_class=SingleThreadedExecutor,
+    return spin_node(lambda options: IkServiceNode(), args,
                      description='Inverse kinematics service of px100_control '
                                  '(ik/request -> ik/solution + ik/status, ik/path_request).')
 

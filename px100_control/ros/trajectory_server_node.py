@@ -537,9 +537,7 @@ def _uuid_bytes(uuid) -> bytes:
 
 def main(args=None):
     """Run the trajectory_server node (``ros2 run px100_control trajectory_server``)."""
-    from rclpy.executors import SingleThreadedExecutor
     return spin_node(lambda options: TrajectoryServerNode(), args,
-                     executor_class=SingleThreadedExecutor,
                      description='Action-style joint trajectory server of px100_control '
                                  '(trajectory/goal, trajectory/status, trajectory/cancel).')
 
