@@ -496,6 +496,7 @@ class InterbotixRobotXSCore:
         with self._pending_lock:
             self._goals[pending.key] = pending
             self._prune(self._goals)
+        self._await_matched(self.pub_goal)
         self.pub_goal.publish(msg)
         return pending
 
@@ -688,6 +689,7 @@ class InterbotixRobotXSCore:
         with self._pending_lock:
             self._ik[pending.key] = pending
         try:
+            self._await_matched(self.pub_ik)
             self.pub_ik.publish(msg)
             if not pending.event.wait(timeout) or pending.solution is None or \
                     pending.diag is None:
@@ -733,6 +735,7 @@ class InterbotixRobotXSCore:
         with self._pending_lock:
             self._paths[pending.key] = pending
         try:
+            self._await_matched(self.pub_ik_path)
             self.pub_ik_path.publish(msg)
             if not pending.event.wait(timeout) or pending.solution is None:
                 raise InterbotixException(
@@ -749,6 +752,19 @@ class InterbotixRobotXSCore:
         self.last_path_reason = pending.diag.message if pending.diag is not None else ''
         return pending.solution
 
+    def _await_matched(self, pub, timeout: float = 0.5) -> None:
+        """
+        Wait (at most timeout [s]) until pub has matched every subscriber the graph knows.
+
+        A recorder that just discovered the topic would otherwise miss the message: DDS
+        delivers only to readers the writer has matched, and matching trails graph discovery.
+        """
+        deadline = time.monotonic() + timeout
+        while pub.get_subscription_count() < \
+                self.robot_node.count_subscribers(pub.topic_name) and \
+                time.monotonic() < deadline:
+            time.sleep(0.005)
+
     # ------------------------------------------------------------- setpoints
     def publish_setpoints(self, names: Sequence[str], positions=None, efforts=None) -> None:
         """Publish a JointState setpoint straight to sim_driver (position and/or effort)."""
@@ -759,6 +775,7 @@ class InterbotixRobotXSCore:
             msg.position = [float(v) for v in positions]
         if efforts is not None:
             msg.effort = [float(v) for v in efforts]
+        self._await_matched(self.pub_setpoints)
         self.pub_setpoints.publish(msg)
 
     # ------------------------------------------------ emulated xs_sdk services

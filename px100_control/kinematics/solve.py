@@ -9,7 +9,11 @@ Targets are (4, 4) poses of the end effector in ``model.base_frame`` [m]. Modes:
   |roll| <= pi/2, the yaw is forced to the target azimuth about the first joint axis (or that
   + pi: the waist can reach over the top), and on <= 4-joint arms the roll is dropped, so only
   the tool x axis direction is constrained. ``details['unreachable_roll']`` and
-  ``details['unreachable_yaw']`` report what was dropped [rad]. 6+ joints: same as 'full'.
+  ``details['unreachable_yaw']`` report what was dropped [rad]. Of the configurations meeting
+  that, the ones with the target's tool roll come first; the waist + pi "over the top" one
+  (tool upside down) is returned only when nothing else is in the limits, with
+  ``details['roll_flipped']`` and the roll it drops (about pi). 6+ joints, and arms that are
+  not a waist + planar chain (:func:`pitch_applies`): same as 'full'.
 - 'position': orientation free; the free angles are chosen by the null-space task toward
   ``q_nominal`` (seed 000 eq. 3; default ``model.home``).
 
@@ -143,6 +147,25 @@ def pitch_target(model, T: np.ndarray):
                 'pitch': float(p), 'yaw': float(y_forced)}
 
 
+@functools.lru_cache(maxsize=64)
+def pitch_applies(model) -> bool:
+    """
+    Return True when 'pitch' mode means what it means on Interbotix arms.
+
+    That is: revolute joints 1-4 (or 1-3 on a 3-joint arm), joints 2-4 with axes parallel to
+    each other and perpendicular to the first (a waist, then a planar shoulder/elbow/wrist
+    chain), so the reachable tool orientations are Rz(waist) Ry(pitch) (and a roll on 5-joint
+    arms). Other arms (seed 002's RRRP, seed 004's RRRR) solve 'pitch' requests as 'full'.
+    """
+    k = min(4, model.dof)
+    if k < 3 or any(t == 'prismatic' for t in model.joint_types[:k]):
+        return False
+    W = np.asarray(model.S_list, float)[:3, :k]
+    w0 = W[:, 0]
+    return all(abs(float(w0 @ W[:, i])) < 1e-9 and
+               float(np.linalg.norm(np.cross(W[:, 1], W[:, i]))) < 1e-9 for i in range(1, k))
+
+
 def make_task(model, T: np.ndarray, mode: str):
     """Return (Task, details) for a validated (4, 4) target and mode."""
     details = {}
@@ -157,17 +180,19 @@ def make_task(model, T: np.ndarray, mode: str):
 
 def _wrap_into_limits(model, Q: np.ndarray) -> np.ndarray:
     """Shift revolute joint values by +-2 pi where that brings them inside their limits."""
-    lo, hi = np.asarray(model.lower), np.asarray(model.upper)
-    lo_l, hi_l = lo.tolist(), hi.tolist()
-    if all(a - 1e-9 <= x <= b + 1e-9 for row in Q.tolist() for x, a, b in zip(row, lo_l, hi_l)):
-        return Q
-    rev = np.array([t != 'prismatic' for t in model.joint_types])
-    for shift in (2.0 * math.pi, -2.0 * math.pi):
-        moved = Q + shift
-        better = rev & ((Q < lo - 1e-9) | (Q > hi + 1e-9)) & (moved >= lo - 1e-9) & (
-            moved <= hi + 1e-9)
-        Q = np.where(better, moved, Q)
-    return Q
+    c = chain(model)
+    rows = Q.tolist()
+    changed = False
+    for row in rows:
+        for j, (x, a, b, joint) in enumerate(zip(row, c.lo, c.hi, c.py)):
+            if a - 1e-9 <= x <= b + 1e-9 or not joint[4]:
+                continue
+            for shift in (2.0 * math.pi, -2.0 * math.pi):
+                if a - 1e-9 <= x + shift <= b + 1e-9:
+                    row[j] = x + shift
+                    changed = True
+                    break
+    return np.array(rows, dtype=float).reshape(Q.shape) if changed else Q
 
 
 def _limit_reason(model, Q: np.ndarray) -> str:
@@ -194,7 +219,7 @@ def _order(solutions: List[np.ndarray], q_seed: np.ndarray,
 
 
 def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
-              max_iterations, module) -> IkResult:
+              max_iterations, module, upright_first: bool = True) -> IkResult:
     name = f'analytic:{model.analytic_ik}'
     if mode == 'position' and hasattr(module, 'position_solutions'):
         # the module minimises |q - q_nominal| over the free angle itself (exact secondary task)
@@ -217,8 +242,11 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
         return _refine_position(model, C, task, q_seed, q_nominal, check_limits, tol_p, tol_o,
                                 max_iterations, name, module, T_eff)
     c = chain(model)
-    verified = []          # (q list, position error, orientation error)
+    verified = []          # (q list, position error, orientation error, roll flipped)
     best_err = (math.inf, math.inf)
+    # 'axis' task (pitch mode, <= 4 joints): the tool x axis alone also accepts the waist + pi
+    # "over the top" configuration, upside down; it is flagged to come after the upright ones
+    full = Task(task.p, task.R, 'full') if task.kind == 'axis' else None
     for q in C.tolist():
         R, p = fk_py(c, q)
         pe, oe = task.errors_py(R, p)
@@ -232,7 +260,9 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
                 if pe + oe < sum(best_err):
                     best_err = (pe, oe)
                 continue
-        verified.append((q, pe, oe))
+            R, p = fk_py(c, q)
+        flipped = full is not None and full.errors_py(R, p)[1] > 0.5 * math.pi
+        verified.append((q, pe, oe, flipped))
     valid = verified
     if check_limits and verified:
         lo = [v - 1e-9 for v in c.lo]
@@ -240,14 +270,18 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
         valid = [v for v in verified if all(a <= x <= b for x, a, b in zip(v[0], lo, hi))]
     if valid:
         sd = [float(x) for x in q_seed]
-        valid.sort(key=lambda v: sum((x - y) ** 2 for x, y in zip(v[0], sd)))
+        # upright before roll-flipped (unless told otherwise), then closest to the seed
+        valid.sort(key=lambda v: (upright_first and v[3],
+                                  sum((x - y) ** 2 for x, y in zip(v[0], sd))))
         kept = []
         for v in valid:
             if all(max(abs(x - y) for x, y in zip(v[0], k[0])) > 1e-9 for k in kept):
                 kept.append(v)
         sols = [np.array(v[0]) for v in kept]
-        return IkResult(True, sols[0], sols, name, 0, kept[0][1], kept[0][2], '',
-                        {'candidates': int(len(C)), 'in_limits': len(sols)})
+        details = {'candidates': int(len(C)), 'in_limits': len(sols)}
+        if kept[0][3]:
+            details['roll_flipped'] = True
+        return IkResult(True, sols[0], sols, name, 0, kept[0][1], kept[0][2], '', details)
     verified = [np.array(v[0]) for v in verified]
     if verified:
         reason = _limit_reason(model, np.array(verified))
@@ -374,7 +408,8 @@ def _iterative(model, task, method, q_seed, q_nominal, check_limits, tol_p, tol_
 
 def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None,
              check_limits: bool = True, method: str = 'auto', tol_position: float = 1e-9,
-             tol_orientation: float = 1e-9, max_iterations: int = 200) -> IkResult:
+             tol_orientation: float = 1e-9, max_iterations: int = 200,
+             upright_first: bool = True) -> IkResult:
     """
     Solve the IK of ``model`` for a (4, 4) end-effector target in ``model.base_frame`` [m].
 
@@ -385,6 +420,9 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
     :param method: 'auto' | 'analytic' | 'dls' | 'newton'
     :param tol_position: [m]; tol_orientation: [rad] of the constrained orientation part
     :param max_iterations: per start of an iterative method
+    :param upright_first: 'pitch' mode, <= 4 joints: rank the configurations with the target's
+        tool roll before the roll-flipped ones (False: by distance to q_seed only, as a path
+        continues its branch)
     :return: IkResult (success False with ``reason`` when there is no valid solution)
     :raises InvalidInputError: malformed pose (NaN, inf, shape, not a rotation), bad seed,
         unknown mode or method
@@ -401,12 +439,21 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
     for name, tol in (('tol_position', tol_position), ('tol_orientation', tol_orientation)):
         if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
             raise InvalidInputError(f'{name} must be a positive finite number, not {tol!r}')
+    as_full = mode == 'pitch' and model.dof < 6 and not pitch_applies(model)
+    if as_full:
+        mode = 'full'
     task, details, T_eff = make_task(model, T, mode)
+    if as_full:
+        details['pitch_mode'] = 'full pose (the joints after the first are not parallel)'
     if method in ('auto', 'analytic') and model.analytic_ik:
         module = _solver(model.analytic_ik)
         res = _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits,
-                        tol_position, tol_orientation, max_iterations, module)
+                        tol_position, tol_orientation, max_iterations, module, upright_first)
         if res.success or method == 'analytic' or getattr(module, 'complete', False):
+            if res.details.pop('roll_flipped', False):
+                # only the upside-down configuration is in the limits: say so
+                details['unreachable_roll'] = _wrap(details['unreachable_roll'] - math.pi)
+                details['roll_flipped'] = True
             res.details.update(details)
             return res
         fallback = _iterative(model, task, 'dls', q_seed, q_nominal, check_limits,
@@ -487,7 +534,8 @@ def solve_path(model, T_list: Sequence, q_start, mode: str = 'pitch',
     for i, T in enumerate(T_list):
         # position mode: the free angles stay near the previous solution unless told otherwise
         nominal = q_nominal if q_nominal is not None else (prev if mode == 'position' else None)
-        res = solve_ik(model, T, mode=mode, q_seed=prev, q_nominal=nominal, **kwargs)
+        res = solve_ik(model, T, mode=mode, q_seed=prev, q_nominal=nominal,
+                       upright_first=False, **kwargs)
         res.details['index'] = i
         out.append(res)
         if not res.success:

@@ -66,6 +66,9 @@ def parse_cli(description: str, args: Optional[Sequence[str]] = None,
 
 #: executor kinds :func:`make_executor` knows (env ``PX100_EXECUTOR`` picks one)
 EXECUTOR_KINDS = ('events', 'single', 'multi')
+#: the recorder and replayer create and destroy subscriptions while they spin, which rclpy
+#: 7.1's EventsExecutor does not survive (SystemError in spin_once); they spin single-threaded
+BAG_EXECUTOR = 'single'
 
 
 def make_executor(context=None, kind: Optional[str] = None):
@@ -74,7 +77,8 @@ def make_executor(context=None, kind: Optional[str] = None):
 
     ``events`` (default): rclpy's C++ EventsExecutor (rclpy >= 7.1, Jazzy); ``single``:
     SingleThreadedExecutor; ``multi``: MultiThreadedExecutor. The kind comes from ``kind``, else
-    env ``PX100_EXECUTOR``. Measured on a 2-core machine (in-process bringup + client, one 2 s
+    env ``PX100_EXECUTOR``. Nodes spinning in an EventsExecutor must not destroy their own
+    entities while it spins (rclpy 7.1 fails in spin_once). Measured on a 2-core machine (in-process bringup + client, one 2 s
     move): events 0.44 CPU cores, single 1.0 (saturated), multi > 1 core and moves stalled by
     seconds (the Python wait-set rebuild runs per callback). None of the nodes blocks inside a
     callback, so a single-threaded executor is safe for all of them.

@@ -46,7 +46,10 @@ import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
+from px100_control.kinematics.iterative import Task as IkTask
 from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
+from px100_control.kinematics.solve import make_task as ik_make_task
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
                                       robot_topic, spin_node)
@@ -80,13 +83,6 @@ PARAMETERS = {
     'max_iterations': (200, 'iterations per start of an iterative method'),
     'nominal_pose': (None, 'secondary-task target and seed before any state [rad] (home)'),
 }
-
-
-try:  # the pieces solve_ik verifies analytic solutions with (the batched fast path needs them)
-    from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
-    from px100_control.kinematics.solve import make_task as ik_make_task
-except ImportError:  # pragma: no cover - without them every request goes through solve_ik
-    ik_chain = ik_fk_batch = ik_make_task = None
 
 
 def parse_pose_stamped(raw: bytes):
@@ -150,7 +146,7 @@ class IkServiceNode(Node):
         self._max_batch = 256
         self._chain = None
         self._batch_method = f'analytic:{self.model.analytic_ik}'
-        if ik_make_task is not None and self.model.analytic_ik:
+        if self.model.analytic_ik:
             if hasattr(get_solver(self.model.analytic_ik), 'solve_batch'):
                 self._chain = ik_chain(self.model)
         self._load_parameters()
@@ -324,26 +320,42 @@ class IkServiceNode(Node):
                 self._solve_one(stamp, T, 'pitch', seed)
             return
         tol_p, tol_o = self._kwargs['tol_position'], self._kwargs['tol_orientation']
-        best, sols_all, pending = [], [], []
+        sols_all, pending, flat = [], [], []
         for i, (stamp, T) in enumerate(items):
             sols = _distinct(Q_all[i][ok_all[i]], seed)
             if not sols:
                 self._solve_one(stamp, T, 'pitch', seed)
                 continue
             pending.append(i)
-            best.append(sols[0])
             sols_all.append(sols)
+            flat.extend(sols)
         if not pending:
             return
-        T_fk = ik_fk_batch(self._chain, np.array(best))
+        T_fk = ik_fk_batch(self._chain, np.array(flat))
+        first = 0
         for k, i in enumerate(pending):
             stamp, T = items[i]
+            sols = sols_all[k]
             task, details, _ = ik_make_task(self.model, T, 'pitch')
-            pe, oe = task.errors(T_fk[k])
+            poses = T_fk[first:first + len(sols)]
+            first += len(sols)
+            if task.kind == 'axis':
+                # as solve_ik: the configurations with the target's tool roll first; when only
+                # the roll-flipped one is left, solve_ik gives the exact answer and details
+                full = IkTask(task.p, task.R, 'full')
+                upright = [j for j in range(len(sols))
+                           if full.errors(poses[j])[1] <= 0.5 * math.pi]
+                if not upright:
+                    self._solve_one(stamp, T, 'pitch', seed)
+                    continue
+                order = upright + [j for j in range(len(sols)) if j not in upright]
+                sols = [sols[j] for j in order]
+                poses = poses[order]
+            pe, oe = task.errors(poses[0])
             if not (pe <= tol_p and oe <= tol_o):
                 self._solve_one(stamp, T, 'pitch', seed)
                 continue
-            res = IkResult(True, best[k], sols_all[k], self._batch_method, 0, float(pe),
+            res = IkResult(True, sols[0], sols, self._batch_method, 0, float(pe),
                            float(oe), '', details)
             self._reply(stamp, res.q, DiagnosticStatus.OK, self._solved_message(res, 'pitch'),
                         self._values(res, 'pitch'))

@@ -46,7 +46,7 @@ from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
-from px100_control.ros.common import make_executor, parse_cli, robot_name
+from px100_control.ros.common import BAG_EXECUTOR, make_executor, parse_cli, robot_name
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -543,7 +543,7 @@ class Recorder:
             if self._given_context is None:
                 self.context.try_shutdown()
             raise
-        self._executor = make_executor(context=self.context)
+        self._executor = make_executor(context=self.context, kind=BAG_EXECUTOR)
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='px100_recorder', daemon=True)
         self._thread.start()
@@ -647,7 +647,7 @@ def main(args=None) -> int:
             idle_timeout=options.idle_timeout, write_tf=not options.no_tf,
             tf_rate=options.tf_rate, write_description=not options.no_robot_description,
             compression=options.compression, flush_period=options.flush_period)
-        executor = make_executor()
+        executor = make_executor(kind=BAG_EXECUTOR)
         executor.add_node(node)
         while rclpy.ok() and not node.closed.is_set():
             executor.spin_once(timeout_sec=0.1)

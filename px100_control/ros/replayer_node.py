@@ -26,7 +26,7 @@ from px100_control.bag.reader import BagReader
 from px100_control.bag.replay import parse_remaps, ReplaySchedule, resolve_topic
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
-from px100_control.ros.common import make_executor, parse_cli, robot_name
+from px100_control.ros.common import BAG_EXECUTOR, make_executor, parse_cli, robot_name
 from px100_control.ros.recorder_node import message_class
 import rclpy
 from rclpy.node import Node
@@ -323,7 +323,7 @@ def main(args=None) -> int:
                             min_subscribers=options.min_subscribers,
                             progress=not options.no_progress)
         node.start()
-        executor = make_executor()
+        executor = make_executor(kind=BAG_EXECUTOR)
         executor.add_node(node)
         while rclpy.ok() and not node.done.is_set():
             executor.spin_once(timeout_sec=0.1)

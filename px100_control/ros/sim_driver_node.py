@@ -322,24 +322,33 @@ class SimDriverNode(Node):
     # --- timing --------------------------------------------------------------------------------
     def _make_timers(self) -> None:
         """
-        (Re)create the ROS timers: only when following ``/clock`` (use_sim_time).
+        Create or retime the ROS timers: only when following ``/clock`` (use_sim_time).
 
         On wall time the physics thread paces itself (see _physics_loop); a timer would only
         wake it.
         """
-        for t in self._timers:
-            self.destroy_timer(t)
-        self._timers = []
         if self._master or not self._use_sim_time:
             with self._jobs_cv:
                 self._jobs_cv.notify()           # a new publish_rate applies at once
             return
-        self._timers.append(self.create_timer(
-            1.0 / self._publish_rate, lambda: self._wake('publish'), callback_group=self._group))
+        # timers are created once and retimed, never destroyed while spinning (rclpy 7.1's
+        # EventsExecutor fails when an entity is destroyed under it)
+        period_ns = int(round(1e9 / self._publish_rate))
+        if not self._timers:
+            self._timers = [
+                self.create_timer(period_ns * 1e-9, lambda: self._wake('publish'),
+                                  callback_group=self._group),
+                self.create_timer(1.0 / FOLLOW_TICK_RATE, lambda: self._wake('follow'),
+                                  callback_group=self._group)]
+        elif self._timers[0].timer_period_ns != period_ns:
+            self._timers[0].timer_period_ns = period_ns
+            self._timers[0].reset()
+        follow = self._timers[1]
         if self._publish_rate < FOLLOW_TICK_RATE:
-            self._timers.append(self.create_timer(
-                1.0 / FOLLOW_TICK_RATE, lambda: self._wake('follow'),
-                callback_group=self._group))
+            if follow.is_canceled():
+                follow.reset()
+        else:
+            follow.cancel()
 
     def _wake(self, job: str) -> None:
         with self._jobs_cv:

@@ -265,6 +265,13 @@ class TrajectoryServerNode(Node):
             missing = [n for n, v in zip(self._names, self._meas) if math.isnan(v)]
             raise InvalidInputError(f'no joint_states from the driver yet (for {missing}): '
                                     'the start of the move is unknown')
+        age = self._state_age()
+        if self._active is None and age > float(self._param('state_timeout')):
+            # e.g. the driver died: its last state is not where a restarted driver is
+            raise InvalidInputError(
+                f'the last joint_states are {age:.3g} s old (state_timeout '
+                f'{self._param("state_timeout")} s): is sim_driver running? The start of the '
+                'move is unknown')
         if self._active is not None:
             q0, v0 = self._current_setpoint(self._active)
         else:

@@ -62,8 +62,9 @@ class NodeProcess:
         return self.proc.poll() is None
 
     def output(self) -> str:
-        """Return everything the process printed so far."""
-        self.log.flush()
+        """Return everything the process printed so far (also after stop())."""
+        if not self.log.closed:
+            self.log.flush()
         with open(self.log.name, encoding='utf-8', errors='replace') as f:
             return f.read()
 

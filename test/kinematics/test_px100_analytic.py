@@ -55,15 +55,24 @@ def test_batch_round_trip_10k(px100):
 
 
 def test_batch_best_is_closest_to_seed(px100):
-    """The (N, n) batch answer is the in-limit branch nearest to q_seed (seed cost function)."""
+    """
+    The (N, n) batch answer is the in-limit branch nearest to q_seed (seed cost function)
+    among those with the target's tool roll; a roll-flipped branch only when no other is left.
+    """
     Q0 = px100.random_configurations(500, np.random.default_rng(5))
-    T = fk_batch(chain(px100), Q0)
+    c = chain(px100)
+    T = fk_batch(c, Q0)
     seed = np.array([0.3, -0.5, 0.4, 0.2])
     Q_all, ok_all = solve_ik_batch(px100, T, q_seed=seed, return_all=True)
     Q, ok = solve_ik_batch(px100, T, q_seed=seed)
     assert ok.all()
-    cost = np.where(ok_all, np.sum((Q_all - seed) ** 2, axis=2), np.inf)
+    Tq = fk_batch(c, Q_all.reshape(-1, 4)).reshape(len(Q0), 4, 4, 4)
+    upright = np.linalg.norm(Tq[..., :3, :3] - T[:, None, :3, :3], axis=(-2, -1)) < 1e-6
+    cost = np.where(ok_all, np.sum((Q_all - seed) ** 2, axis=2) + 1e6 * ~upright, np.inf)
     np.testing.assert_allclose(Q, Q_all[np.arange(len(Q)), np.argmin(cost, axis=1)])
+    # and here (FK targets of in-limit configurations) every answer is upright
+    assert (np.linalg.norm(fk_batch(c, Q)[:, :3, :3] - T[:, :3, :3], axis=(-2, -1))
+            < 1e-6).all()
 
 
 def test_batch_rows_xyz_pitch_match_poses(px100):
@@ -72,10 +81,18 @@ def test_batch_rows_xyz_pitch_match_poses(px100):
     Q0 = px100.random_configurations(300, rng)
     T = fk_batch(chain(px100), Q0)
     Q1, ok1 = solve_ik_batch(px100, T)
-    rows = ana._pose_rows(px100, T)
+    rows, back = ana._pose_rows(px100, T, with_side=True)
     Q2, ok2 = solve_ik_batch(px100, rows)
     assert (ok1 == ok2).all()
-    np.testing.assert_allclose(Q1[ok1], Q2[ok2], atol=1e-12)
+    # a row (x, y, z, pitch) means Rz(atan2(y, x)) Ry(pitch): the pose of a front-branch
+    # configuration; poses of waist + pi configurations have the other tool roll
+    assert 0 < back.sum() < len(back)
+    front = ok1 & ~back
+    np.testing.assert_allclose(Q1[front], Q2[front], atol=1e-12)
+    # for rows, the front branches (waist = atan2(y, x)) win whenever one is in the limits
+    _, ok_all = solve_ik_batch(px100, rows, return_all=True)
+    pick = ok2 & ok_all[:, :2].any(axis=1)
+    assert np.abs(Q2[pick, 0] - np.arctan2(rows[pick, 1], rows[pick, 0])).max() < 1e-9
 
 
 @pytest.mark.parametrize('mode', ['full', 'pitch'])
@@ -123,7 +140,13 @@ def test_solutions_ordered_by_distance_to_seed(px100):
     for seed in ([0, 0, 0, 0], [a - math.pi, -1.0, 1.0, 0.0], [a, 1.0, -1.5, 0.5]):
         res = solve_ik(px100, Tt, mode='pitch', q_seed=seed)
         d = [np.linalg.norm(s - seed) for s in res.solutions]
-        assert d == sorted(d) and len(d) == 4
+        assert len(d) == 4
+        # in 'pitch' mode the two with the target's tool roll (waist a) come first
+        assert all(abs(s[0] - a) < 1e-9 for s in res.solutions[:2])
+        assert d[:2] == sorted(d[:2]) and d[2:] == sorted(d[2:])
+        res = solve_ik(px100, Tt, mode='pitch', q_seed=seed, upright_first=False)
+        d = [np.linalg.norm(s - seed) for s in res.solutions]
+        assert d == sorted(d)
 
 
 def test_interbotix_pitch_semantics(px100):
@@ -258,3 +281,73 @@ def test_reach_margin_matches_seed_torus(px100):
     assert ana.reach_margin(px100, p, 0.0) == pytest.approx(0.0, abs=1e-12)
     assert ana.reach_margin(px100, [x_max + 0.01, 0.0, -g.v2], 0.0) == pytest.approx(-0.01)
     assert ana.reach_margin(px100, [x_max - 0.01, 0.0, -g.v2], 0.0) == pytest.approx(0.01)
+
+
+def _roll_off(model, q, T) -> float:
+    """Return the rotation angle [rad] between the pose of q and T (full orientation)."""
+    E = model.fk(q)[:3, :3].T @ T[:3, :3]
+    return math.acos(max(-1.0, min(1.0, 0.5 * (np.trace(E) - 1.0))))
+
+
+def test_pitch_mode_prefers_the_upright_configuration(px100):
+    """
+    FK targets of in-limit configurations come back exact in 'pitch' mode, whatever the seed.
+
+    The waist + pi "over the top" branch meets the same position and tool x axis upside down;
+    closest-to-seed ranking alone returned it for about a quarter of such targets.
+    """
+    rng = np.random.default_rng(21)
+    Q = px100.random_configurations(500, rng)
+    for q in Q:
+        T = px100.fk(q)
+        seed = px100.random_configurations(1, rng)[0]
+        res = solve_ik(px100, T, mode='pitch', q_seed=seed)
+        assert res.success, res.reason
+        assert _roll_off(px100, res.q, T) < 1e-7
+        assert 'roll_flipped' not in res.details
+    # the batch path makes the same choice
+    Ts = np.array([px100.fk(q) for q in Q])
+    Qb, ok = solve_ik_batch(px100, Ts, q_seed=px100.sleep)
+    assert ok.all()
+    assert max(_roll_off(px100, q, T) for q, T in zip(Qb, Ts)) < 1e-7
+
+
+def test_pitch_mode_reports_an_upside_down_only_answer(px100):
+    """When only the flipped configuration is in the limits it is returned, roll ~pi reported."""
+    lo, hi = np.array(px100.lower), np.array(px100.upper)
+    rng = np.random.default_rng(5)
+    found = 0
+    for q in px100.random_configurations(3000, rng):
+        T = px100.fk(q)
+        T_up = T.copy()
+        T_up[:3, 1:3] *= -1.0          # same position and x axis, rolled by pi
+        res = solve_ik(px100, T_up, mode='pitch')
+        if not res.success:
+            continue
+        if res.details.get('roll_flipped'):
+            found += 1
+            assert abs(abs(res.details['unreachable_roll']) - math.pi) < 1e-6
+            assert np.all(res.q >= lo - 1e-9) and np.all(res.q <= hi + 1e-9)
+        else:
+            assert _roll_off(px100, res.q, T_up) < 1e-7
+    assert found > 0
+
+
+@pytest.mark.parametrize('name', ['rrrr', 'rrrp'])
+def test_pitch_mode_is_full_on_arms_without_a_planar_chain(name):
+    """Seed 002's RRRP and seed 004's RRRR: 'pitch' requests are solved as the whole pose."""
+    from px100_control.kinematics.solve import pitch_applies
+    m = load_robot(name)
+    assert not pitch_applies(m)
+    for q in m.random_configurations(50, np.random.default_rng(2)):
+        T = m.fk(q)
+        res = solve_ik(m, T, mode='pitch')
+        assert res.success, res.reason
+        assert np.abs(m.fk(res.q) - T).max() < 1e-7
+        assert 'full pose' in res.details['pitch_mode']
+
+
+def test_pitch_applies_to_the_interbotix_arms():
+    from px100_control.kinematics.solve import pitch_applies
+    for name in ('px100', 'px150', 'rx200', 'wx250', 'vx300'):
+        assert pitch_applies(load_robot(name)), name

@@ -470,6 +470,10 @@ def _reach_words(margin: float, suffix: str) -> str:
 # vectorised batch (numpy): every branch for N targets at once
 # ---------------------------------------------------------------------------------------------
 
+#: cost added to the roll-flipped branches in solve_batch (above any squared joint distance)
+_FLIP_COST = 1e6
+
+
 def _wrap_np(a: np.ndarray) -> np.ndarray:
     """Return a wrapped to [-pi, pi) (floor-based: much faster than np.remainder)."""
     return a - _TWO_PI * np.floor((a + math.pi) * (1.0 / _TWO_PI))
@@ -549,7 +553,10 @@ def solve_batch(model, targets, q_seed=None, check_limits: bool = True,
     """
     g = geometry(model)
     targets = np.asarray(targets, dtype=float)
-    rows = _pose_rows(model, targets) if targets.ndim == 3 else targets
+    if targets.ndim == 3:
+        rows, back_first = _pose_rows(model, targets, with_side=True)
+    else:
+        rows, back_first = targets, np.zeros(len(targets), dtype=bool)
     n = rows.shape[0]
     seed = [float(v) for v in (model.home if q_seed is None else q_seed)]
     lo = [v - 1e-9 for v in g.lower]
@@ -573,10 +580,12 @@ def solve_batch(model, targets, q_seed=None, check_limits: bool = True,
         e = min(n, s + chunk)
         best_cost = np.full(e - s, np.inf)
         best = [np.zeros(e - s) for _ in range(4)]
-        for q1, q2, q3, q4, good in _branches_np(g, cols[0][s:e], cols[1][s:e], cols[2][s:e],
-                                                 cols[3][s:e]):
+        flip_cost = np.where(back_first[s:e], _FLIP_COST, 0.0)
+        for j, (q1, q2, q3, q4, good) in enumerate(_branches_np(
+                g, cols[0][s:e], cols[1][s:e], cols[2][s:e], cols[3][s:e])):
             qs = (q1, q2, q3, q4)
-            cost = (q1 - seed[0]) ** 2
+            # the branches with the target's tool roll win over the roll-flipped ones
+            cost = (q1 - seed[0]) ** 2 + (flip_cost if j < 2 else _FLIP_COST - flip_cost)
             for i in (1, 2, 3):
                 cost += (qs[i] - seed[i]) ** 2
             valid = good.copy()
@@ -605,14 +614,22 @@ def solve_batch(model, targets, q_seed=None, check_limits: bool = True,
     return Q_best, ok_best
 
 
-def _pose_rows(model, T: np.ndarray) -> np.ndarray:
-    """Return (N, 4) rows (x, y, z, pitch) of (N, 4, 4) poses (pitch as in target_pitch)."""
+def _pose_rows(model, T: np.ndarray, with_side: bool = False):
+    """
+    Return (N, 4) rows (x, y, z, pitch) of (N, 4, 4) poses (pitch as in target_pitch).
+
+    with_side: also return (N,) bools, True where the pose's tool roll is that of the back
+    (waist + pi) branches, i.e. its y axis points away from the front branches' y axis
+    (-sin a, cos a, 0).
+    """
     g = geometry(model)
     p = T[:, :3, 3]
     X = T[:, :3, 0]
+    Y = T[:, :3, 1]
     if not g.frame_is_base:
         P = (p - g.origin) @ g.R_F
         X = X @ g.R_F
+        Y = Y @ g.R_F
     else:
         P = p
     a = np.arctan2(P[:, 1], P[:, 0])
@@ -620,4 +637,7 @@ def _pose_rows(model, T: np.ndarray) -> np.ndarray:
     if np.any(on_axis):
         a = np.where(on_axis, np.arctan2(X[:, 1], X[:, 0]), a)
     pitch = np.arctan2(-X[:, 2], np.cos(a) * X[:, 0] + np.sin(a) * X[:, 1])
-    return np.column_stack([p, pitch])
+    rows = np.column_stack([p, pitch])
+    if not with_side:
+        return rows
+    return rows, (np.cos(a) * Y[:, 1] - np.sin(a) * Y[:, 0]) < 0.0
