@@ -21,9 +21,9 @@ import atexit
 import threading
 from typing import Optional
 
+from px100_control.ros.common import make_executor
 import rclpy
 from rclpy.duration import Duration
-from px100_control.ros.common import make_executor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 

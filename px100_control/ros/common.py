@@ -78,10 +78,11 @@ def make_executor(context=None, kind: Optional[str] = None):
     ``events`` (default): rclpy's C++ EventsExecutor (rclpy >= 7.1, Jazzy); ``single``:
     SingleThreadedExecutor; ``multi``: MultiThreadedExecutor. The kind comes from ``kind``, else
     env ``PX100_EXECUTOR``. Nodes spinning in an EventsExecutor must not destroy their own
-    entities while it spins (rclpy 7.1 fails in spin_once). Measured on a 2-core machine (in-process bringup + client, one 2 s
-    move): events 0.44 CPU cores, single 1.0 (saturated), multi > 1 core and moves stalled by
-    seconds (the Python wait-set rebuild runs per callback). None of the nodes blocks inside a
-    callback, so a single-threaded executor is safe for all of them.
+    entities while it spins (rclpy 7.1 fails in spin_once). Measured on a 2-core machine
+    (in-process bringup + client, one 2 s move): events 0.44 CPU cores, single 1.0
+    (saturated), multi > 1 core and moves stalled by seconds (the Python wait-set rebuild runs
+    per callback). None of the nodes blocks inside a callback, so a single-threaded executor
+    is safe for all of them.
     """
     import os
 

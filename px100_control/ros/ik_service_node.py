@@ -48,8 +48,8 @@ from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
 from px100_control.kinematics.iterative import Task as IkTask
-from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
 from px100_control.kinematics.solve import make_task as ik_make_task
+from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
                                       robot_topic, spin_node)

@@ -15,10 +15,6 @@ pytestmark = pytest.mark.ros
 
 HOME_EE = np.array([0.248575, 0.0, 0.1931])
 
-#: issue #5 is open: on a quiet 2-core machine these failed all 3 runs (in-process
-#: bringup stalled sim_driver ~2.6 s); see the session's closing note
-KNOWN_DEFECT = 'known defect, issue #5: '
-
 
 def measured_ee(bot) -> np.ndarray:
     """Return the position [m] of the latest ee_pose message published by sim_driver."""
@@ -64,7 +60,6 @@ def test_startup_state(bot):
         arm.get_joint_commands()), atol=1e-12)
 
 
-@pytest.mark.xfail(strict=False, reason=KNOWN_DEFECT + 'home pose not reached')
 def test_home_and_sleep_poses(bot):
     """go_to_home_pose reaches zeros (EE at M) and go_to_sleep_pose the sleep pose; None back."""
     assert bot.arm.go_to_home_pose() is None
@@ -256,7 +251,6 @@ def test_unreachable_targets_fail_cleanly(bot):
     assert bot.arm.get_joint_commands() == [0.0] * 4
 
 
-@pytest.mark.xfail(strict=False, reason=KNOWN_DEFECT + 'path left the line by 3.4 mm')
 def test_cartesian_trajectory_is_a_straight_line(bot):
     """set_ee_cartesian_trajectory moves the EE along a line (measured) and blocks."""
     _, ok = bot.arm.set_ee_pose_components(x=0.18, z=0.12, pitch=0.3, moving_time=1.2)

@@ -27,9 +27,6 @@ SCRIPT1_TARGETS = [[100, 200, 3], [100, -200, 3], [0, 0, 250], [20, 100, 20], [1
 SCRIPT2_TARGETS = [[100, 250, 100], [90, -100, 10], [20, 0, 250], [150, 50, 10], [150, 0, 80],
                    [40, -100, -30]]
 
-#: issue #5 is open: on a quiet 2-core machine these failed all 3 runs (in-process
-#: bringup stalled sim_driver ~2.6 s); see the session's closing note
-KNOWN_DEFECT = 'known defect, issue #5: '
 
 
 @pytest.fixture
@@ -75,7 +72,6 @@ def test_seed000_joint_space_main(spy):
     _check(spy, SCRIPT1_TARGETS)
 
 
-@pytest.mark.xfail(strict=False, reason=KNOWN_DEFECT + 'node context invalid')
 def test_seed000_iterative_main(spy):
     """Section V.8 main(): iterative_algorithm targets (null-space toward q_nom)."""
     import seed000_iterative

@@ -56,8 +56,9 @@ def test_batch_round_trip_10k(px100):
 
 def test_batch_best_is_closest_to_seed(px100):
     """
-    The (N, n) batch answer is the in-limit branch nearest to q_seed (seed cost function)
-    among those with the target's tool roll; a roll-flipped branch only when no other is left.
+    The (N, n) batch answer is the in-limit branch nearest to q_seed (seed cost function).
+
+    Among those with the target's tool roll; a roll-flipped branch only when no other is left.
     """
     Q0 = px100.random_configurations(500, np.random.default_rng(5))
     c = chain(px100)

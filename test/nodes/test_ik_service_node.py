@@ -109,7 +109,9 @@ def test_best_solution_is_the_one_closest_to_the_measured_state(fresh):
     for q in MODEL.random_configurations(200, rng, margin=0.2):
         T = MODEL.fk(q)
         sols = solve_ik(MODEL, T, mode='pitch').solutions
-        if len(sols) >= 2 and np.max(np.abs(sols[0] - sols[1])) > 0.3:
+        # two upright branches (same waist: the elbow-up/down pair), far apart
+        if len(sols) >= 2 and abs(sols[0][0] - sols[1][0]) < 1e-9 and \
+                np.max(np.abs(sols[0] - sols[1])) > 0.3:
             break
     else:
         pytest.fail('no target with two distinct branches found')
@@ -154,6 +156,7 @@ def test_nan_and_malformed_requests_are_refused_once(fresh):
 def test_position_only_target_takes_the_nominal_pitch(fresh):
     """An all-zero quaternion: position-only IK (mode 'position'), position reached."""
     env = fresh
+    env.set_state(np.asarray(MODEL.home, float))   # the reply follows the measured state
     T = MODEL.fk(np.array([0.4, -0.3, 0.5, 0.2]))
     pose = matrix_to_pose(T)
     pose.orientation.x = pose.orientation.y = pose.orientation.z = pose.orientation.w = 0.0
