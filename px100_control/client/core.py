@@ -593,8 +593,9 @@ class InterbotixRobotXSCore:
         if mode == 'pitch':
             self.get_node().logwarn(
                 f"{node} runs with orientation_mode 'pitch': for a {self.model.dof}-DOF arm it "
-                'may answer with the roll-flipped ("over the top") configuration, which the '
-                'Interbotix API refuses (pose off by pi). Start it with '
+                'answers with the roll-flipped ("over the top") configuration when no upright '
+                'one is in the joint limits, which the Interbotix API refuses (pose off by pi). '
+                'Start it with '
                 "'--ros-args -p orientation_mode:=strict' (bringup=True does this).")
 
     def find_node(self, name: str) -> Optional[str]:

@@ -89,18 +89,25 @@ def target_azimuth(model, p) -> float:
 
     Used when the yaw of a < 6-DOF arm is forced; falls back to atan2(y, x) in the base frame.
     """
-    S = np.asarray(model.S_list, float)
-    w = S[:3, 0]
-    p = np.asarray(p, float)
-    if model.joint_types[0] != 'prismatic' and abs(abs(w[2]) - 1.0) < 1e-9:
-        v = S[3:, 0]
-        c = np.array([w[1] * v[2] - w[2] * v[1], w[2] * v[0] - w[0] * v[2],
-                      w[0] * v[1] - w[1] * v[0]])      # a point on the first axis
-        d = p - c
-        if d[0] * d[0] + d[1] * d[1] > 1e-24:
-            return math.atan2(d[1], d[0])
+    c = _first_axis_point(model)
+    x, y = float(p[0]), float(p[1])
+    if c is not None:
+        dx, dy = x - c[0], y - c[1]
+        if dx * dx + dy * dy > 1e-24:
+            return math.atan2(dy, dx)
         return 0.0
-    return math.atan2(p[1], p[0])
+    return math.atan2(y, x)
+
+
+@functools.lru_cache(maxsize=64)
+def _first_axis_point(model):
+    """Return (x, y) of the first joint axis when it is a vertical revolute axis, else None."""
+    S = np.asarray(model.S_list, float)
+    w, v = S[:3, 0], S[3:, 0]
+    if model.joint_types[0] == 'prismatic' or abs(abs(w[2]) - 1.0) >= 1e-9:
+        return None
+    # a point on the axis: w x v
+    return (float(w[1] * v[2] - w[2] * v[1]), float(w[2] * v[0] - w[0] * v[2]))
 
 
 def _euler_sxyz(T: np.ndarray):
@@ -235,7 +242,8 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
     else:
         C = np.asarray(module.candidates(model, T_eff, mode), dtype=float).reshape(
             -1, model.dof)
-    C = C[np.all(np.isfinite(C), axis=1)]
+    if not math.isfinite(float(C.sum())):      # one reduction; filter only when needed
+        C = C[np.all(np.isfinite(C), axis=1)]
     if len(C) and check_limits:
         C = _wrap_into_limits(model, C)
     if mode == 'position' and not hasattr(module, 'position_solutions'):
@@ -245,8 +253,10 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
     verified = []          # (q list, position error, orientation error, roll flipped)
     best_err = (math.inf, math.inf)
     # 'axis' task (pitch mode, <= 4 joints): the tool x axis alone also accepts the waist + pi
-    # "over the top" configuration, upside down; it is flagged to come after the upright ones
-    full = Task(task.p, task.R, 'full') if task.kind == 'axis' else None
+    # "over the top" configuration, upside down; it is flagged to come after the upright ones.
+    # With the x axes equal, the rotation between the two is about x by the angle between the
+    # y axes: flipped (more than pi/2) when they point apart.
+    y_t = [row[1] for row in task.R.tolist()] if task.kind == 'axis' else None
     for q in C.tolist():
         R, p = fk_py(c, q)
         pe, oe = task.errors_py(R, p)
@@ -261,7 +271,8 @@ def _analytic(model, T_eff, mode, task, q_seed, q_nominal, check_limits, tol_p, 
                     best_err = (pe, oe)
                 continue
             R, p = fk_py(c, q)
-        flipped = full is not None and full.errors_py(R, p)[1] > 0.5 * math.pi
+        flipped = y_t is not None and \
+            R[0][1] * y_t[0] + R[1][1] * y_t[1] + R[2][1] * y_t[2] < 0.0
         verified.append((q, pe, oe, flipped))
     valid = verified
     if check_limits and verified:

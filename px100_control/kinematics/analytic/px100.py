@@ -176,13 +176,16 @@ def _pitch_branches(g: Px100Geometry, P0: float, P1: float, pitch: float,
 
 
 def solve_xyz_pitch(g: Px100Geometry, x: float, y: float, z: float, pitch: float,
-                    azimuth: Optional[float] = None) -> List[tuple]:
+                    azimuth: Optional[float] = None, n_front: Optional[list] = None
+                    ) -> List[tuple]:
     """
     Return every closed-form solution (4-tuples, no limit check) for a position and pitch.
 
     :param x, y, z: end-effector position in the base frame [m]
     :param pitch: tool pitch [rad], positive down (Interbotix convention; see module doc)
     :param azimuth: waist direction to use when the target is on the waist axis (default atan2)
+    :param n_front: (optional) an empty list that receives the number of front-branch
+        solutions, which come first (the back ones, waist + pi, have the tool roll flipped)
     """
     P0, P1, P2 = g.to_arm_frame((x, y, z))
     if azimuth is None and P0 * P0 + P1 * P1 < 1e-24:
@@ -193,6 +196,8 @@ def solve_xyz_pitch(g: Px100Geometry, x: float, y: float, z: float, pitch: float
         _waist_values(g, t, waists)
         for t1 in waists:
             _planar(g, t1, phi, P0, P1, P2, out)
+        if n_front is not None and not n_front:
+            n_front.append(len(out))
     return out
 
 
@@ -202,22 +207,26 @@ def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
     """
     Return the in-limit solutions for (x, y, z [m], pitch [rad]), closest to q_seed first.
 
-    The fast scalar path (plain floats, no numpy): the seed 000 cost function (Euclidean
-    distance to q_seed, default model.home) orders the solutions. Input must be finite.
+    The fast scalar path (plain floats, no numpy): the front branches (waist toward the target,
+    tool roll 0 as Interbotix means it) before the back ones, each ordered by the seed 000 cost
+    function (Euclidean distance to q_seed, default model.home). Input must be finite.
     """
     g = geometry(model)
-    sols = solve_xyz_pitch(g, x, y, z, pitch)
+    n_front: list = []
+    sols = solve_xyz_pitch(g, x, y, z, pitch, n_front=n_front)
+    # (back branch, q): the front branches have the target's tool roll and come first
+    tagged = [(k >= n_front[0], q) for k, q in enumerate(sols)]
     if check_limits:
         lo, hi = g.lower, g.upper
-        sols = [q for q in sols if lo[0] - tol <= q[0] <= hi[0] + tol
-                and lo[1] - tol <= q[1] <= hi[1] + tol and lo[2] - tol <= q[2] <= hi[2] + tol
-                and lo[3] - tol <= q[3] <= hi[3] + tol]
-    if len(sols) > 1:
+        tagged = [(b, q) for b, q in tagged if lo[0] - tol <= q[0] <= hi[0] + tol
+                  and lo[1] - tol <= q[1] <= hi[1] + tol and lo[2] - tol <= q[2] <= hi[2] + tol
+                  and lo[3] - tol <= q[3] <= hi[3] + tol]
+    if len(tagged) > 1:
         s = model.home if q_seed is None else q_seed
         s0, s1, s2, s3 = float(s[0]), float(s[1]), float(s[2]), float(s[3])
-        sols.sort(key=lambda q: (q[0] - s0) ** 2 + (q[1] - s1) ** 2 + (q[2] - s2) ** 2
-                  + (q[3] - s3) ** 2)
-    return sols
+        tagged.sort(key=lambda bq: (bq[0], (bq[1][0] - s0) ** 2 + (bq[1][1] - s1) ** 2
+                                    + (bq[1][2] - s2) ** 2 + (bq[1][3] - s3) ** 2))
+    return [q for _, q in tagged]
 
 
 # ---------------------------------------------------------------------------------------------
