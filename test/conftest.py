@@ -37,11 +37,25 @@ def spin_node(rclpy_context):
     """
     import threading
 
-    from rclpy.executors import MultiThreadedExecutor
+    from px100_control.ros.common import make_executor
 
-    executor = MultiThreadedExecutor(context=rclpy_context)
+    # single-threaded: a Python MultiThreadedExecutor here lags behind fast publishers on 2
+    # cores (a reliable keep-last writer then drops samples); not the EventsExecutor, which
+    # rclpy 7.1 cannot run raw subscriptions with message info on (test listeners use them)
+    executor = make_executor(context=rclpy_context, kind='single')
     nodes = []
-    thread = threading.Thread(target=executor.spin, daemon=True)
+    spinning = threading.Event()
+    spinning.set()
+
+    def _spin():
+        try:
+            while spinning.is_set() and rclpy_context.ok():
+                executor.spin_once(timeout_sec=0.05)
+        except Exception:  # noqa: B902 - the context was shut down under the executor
+            if spinning.is_set():
+                raise
+
+    thread = threading.Thread(target=_spin, daemon=True)
     started = []
 
     def _add(*new_nodes):
@@ -54,11 +68,12 @@ def spin_node(rclpy_context):
         return new_nodes[0] if len(new_nodes) == 1 else new_nodes
 
     yield _add
+    spinning.clear()
+    if started:
+        thread.join(timeout=5.0)
     executor.shutdown(timeout_sec=2.0)
     for n in nodes:
         n.destroy_node()
-    if started:
-        thread.join(timeout=5.0)
 
 
 @pytest.fixture

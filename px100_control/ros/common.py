@@ -66,8 +66,9 @@ def parse_cli(description: str, args: Optional[Sequence[str]] = None,
 
 #: executor kinds :func:`make_executor` knows (env ``PX100_EXECUTOR`` picks one)
 EXECUTOR_KINDS = ('events', 'single', 'multi')
-#: the recorder and replayer create and destroy subscriptions while they spin, which rclpy
-#: 7.1's EventsExecutor does not survive (SystemError in spin_once); they spin single-threaded
+#: the recorder's raw subscriptions with message info (for the DDS timestamps) fail in rclpy
+#: 7.1's EventsExecutor ("SystemError: null argument to internal routine" in spin_once), and
+#: it destroys subscriptions while spinning: the recorder and replayer spin single-threaded
 BAG_EXECUTOR = 'single'
 
 

@@ -28,7 +28,6 @@ SCRIPT2_TARGETS = [[100, 250, 100], [90, -100, 10], [20, 0, 250], [150, 50, 10],
                    [40, -100, -30]]
 
 
-
 @pytest.fixture
 def spy(monkeypatch):
     """Record every set_joint_positions call: command, result, measured joints and ee_pose."""

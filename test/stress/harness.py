@@ -29,9 +29,9 @@ from action_msgs.msg import GoalStatusArray
 from action_msgs.srv import CancelGoal
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseArray, PoseStamped
+from px100_control.ros.common import make_executor
 from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
 import rclpy
-from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -302,8 +302,12 @@ class Probe:
         # no rclpy SIGINT handler: Ctrl-C must interrupt a campaign (and stop the nodes)
         rclpy.init(context=self.ctx, signal_handler_options=SignalHandlerOptions.NO)
         self.node = Node(node_name, context=self.ctx)
-        self.executor = MultiThreadedExecutor(num_threads=4, context=self.ctx)
+        # the project's executor (rclpy's EventsExecutor): a Python MultiThreadedExecutor here
+        # took enough CPU on 2 cores to delay joint_states reception by over a second
+        self.executor = make_executor(context=self.ctx)
         self.executor.add_node(self.node)
+        self._spinning = threading.Event()
+        self._spinning.set()
         self.cond = threading.Condition()
         self.own_setpoints = set()
         self.violations: List[dict] = []
@@ -345,8 +349,12 @@ class Probe:
         self.cli_reset = n.create_client(Trigger, t('reset'))
         self.cli_cancel = n.create_client(CancelGoal, t('trajectory/cancel'))
         self._param_clients = {}
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
         self.thread.start()
+
+    def _spin(self) -> None:
+        while self._spinning.is_set() and self.ctx.ok():
+            self.executor.spin_once(timeout_sec=0.05)
 
     def topic(self, name: str) -> str:
         """Return the robot topic ``/<robot_name>/<name>``."""
@@ -354,10 +362,11 @@ class Probe:
 
     def close(self) -> None:
         """Stop the executor and shut the context down."""
+        self._spinning.clear()
+        self.thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
         self.node.destroy_node()
         self.ctx.try_shutdown()
-        self.thread.join(timeout=5.0)
 
     # monitor callbacks
     def _violation(self, where: str, problems: List[str], msg) -> None:
