@@ -121,11 +121,14 @@ def _ours(model, Q, targets, quick):
         from px100_control.kinematics.analytic.px100 import _pose_rows
         rows_xyzp = _pose_rows(model, np.asarray(targets)).tolist()
         home = [float(x) for x in model.home]
-        times, ok = [], 0
-        for (x, y, z, p), T in zip(rows_xyzp, targets):
+        times, answers, ok = [], [], 0
+        solve = module.ik_xyz_pitch
+        for x, y, z, p in rows_xyzp:         # timed back to back, checked afterwards
             t0 = time.perf_counter()
-            sols = module.ik_xyz_pitch(model, x, y, z, p, home)
+            sols = solve(model, x, y, z, p, home)
             times.append(time.perf_counter() - t0)
+            answers.append(sols)
+        for sols, T in zip(answers, targets):
             ok += bool(sols) and _ok(model, np.array(sols[0]), T) or any(
                 _ok(model, np.array(s), T) for s in sols[1:])
         t = np.array(times) * 1e6
@@ -355,7 +358,8 @@ def _peer_rows(model, targets):
 
 def _peers_in_bench_venv(robot, n, quick):
     py = os.path.join(BENCH_VENV, 'bin', 'python')
-    if not os.path.isfile(py) or os.path.realpath(py) == os.path.realpath(sys.executable):
+    # venv interpreters are symlinks to the same base Python: compare the venvs, not the files
+    if not os.path.isfile(py) or os.path.realpath(BENCH_VENV) == os.path.realpath(sys.prefix):
         return None
     with tempfile.NamedTemporaryFile(suffix='.json', delete=False) as f:
         out = f.name

@@ -4,7 +4,8 @@ Run every benchmark of this folder in one go and write one Markdown table and on
 Each ``benchmarks/bench_<name>.py`` exposes ``run(quick: bool) -> dict``; a dict may carry a
 ``markdown`` entry (its own table) and anything else as figures. Output:
 ``benchmarks/results/summary.md`` and ``benchmarks/results/summary.json``, with the date and
-the machine. Usage: ``python benchmarks/run_all.py [--quick] [--only kinematics,ik_service]``.
+the machine. Usage: ``python benchmarks/run_all.py [--quick] [--only kinematics,ik_service]
+[--merge]``.
 """
 import argparse
 import datetime
@@ -43,6 +44,14 @@ def _load(name):
     return module
 
 
+def _section(name, figures) -> str:
+    """Return the Markdown section of one benchmark (its own table, or its figures flat)."""
+    table = figures.get('markdown') or _flat_table(name, {
+        k: v for k, v in figures.items() if k not in ('markdown', 'run_at')})
+    when = f" (run {figures['run_at']})" if figures.get('run_at') else ''
+    return f'## {name}{when}\n\n{table}\n'
+
+
 def _flat_table(name, figures) -> str:
     rows = [f'| {k} | {v} |' for k, v in _flatten(figures).items()]
     return '\n'.join([f'| {name} | value |', '| --- | --- |', *rows])
@@ -68,13 +77,24 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--quick', action='store_true', help='reduced sizes (a smoke run)')
     parser.add_argument('--only', default='', help='comma-separated benchmark names')
+    parser.add_argument('--merge', action='store_true',
+                        help='keep the other sections of the existing summary (each section '
+                             'says when it was run)')
     options = parser.parse_args(argv)
     present = [n for n in ORDER if os.path.isfile(os.path.join(HERE, f'bench_{n}.py'))]
     present += sorted(f[6:-3] for f in os.listdir(HERE)
                       if f.startswith('bench_') and f.endswith('.py') and f[6:-3] not in present)
     names = [n for n in present if not options.only or n in options.only.split(',')]
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')
-    results, sections, failed = {}, [], []
+    results, sections, failed = {}, {}, []
+    summary_json = os.path.join(HERE, 'results', 'summary.json')
+    if options.merge and os.path.isfile(summary_json):
+        with open(summary_json) as f:
+            old = json.load(f)
+        for name, figures in old.get('results', {}).items():
+            if name not in names and 'error' not in figures:
+                results[name] = figures
+                sections[name] = _section(name, figures)
     for name in names:
         print(f'=== {name} ===', flush=True)
         t0 = time.monotonic()
@@ -84,21 +104,21 @@ def main(argv=None) -> int:
             traceback.print_exc()
             failed.append(name)
             results[name] = {'error': traceback.format_exc(limit=3)}
-            sections.append(f'## {name}\n\nFAILED (see the log)\n')
+            sections[name] = f'## {name}\n\nFAILED (see the log)\n'
             continue
         figures = dict(figures or {})
         figures.setdefault('wall_time_s', round(time.monotonic() - t0, 1))
+        figures.setdefault('run_at', stamp)
         results[name] = figures
-        table = figures.get('markdown') or _flat_table(name, {
-            k: v for k, v in figures.items() if k != 'markdown'})
-        sections.append(f'## {name}\n\n{table}\n')
-        print(table, flush=True)
+        sections[name] = _section(name, figures)
+        print(sections[name], flush=True)
     header = (f'# px100_control benchmarks\n\nRun {stamp} on {_machine()}'
               f'{" (quick)" if options.quick else ""}.\n')
     os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
+    order = [n for n in present if n in sections] + [n for n in sections if n not in present]
     with open(os.path.join(HERE, 'results', 'summary.md'), 'w') as f:
-        f.write(header + '\n' + '\n'.join(sections))
-    with open(os.path.join(HERE, 'results', 'summary.json'), 'w') as f:
+        f.write(header + '\n' + '\n'.join(sections[n] for n in order))
+    with open(summary_json, 'w') as f:
         json.dump({'date': stamp, 'machine': _machine(), 'quick': options.quick,
                    'results': results}, f, indent=2, default=str)
     print(f'wrote {os.path.join(HERE, "results", "summary.md")}')

@@ -47,7 +47,6 @@ from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
-from px100_control.kinematics.iterative import Task as IkTask
 from px100_control.kinematics.solve import make_task as ik_make_task
 from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
@@ -106,13 +105,14 @@ def parse_pose_stamped(raw: bytes):
 
 
 def _distinct(Q: np.ndarray, seed: np.ndarray, tol: float = 1e-9):
-    """Return the rows of Q without duplicates, ordered by distance to seed."""
-    order = np.argsort(np.einsum('ij,ij->i', Q - seed, Q - seed), kind='stable')
+    """Return the rows of Q without duplicates, ordered by distance to seed (plain floats)."""
+    s = seed.tolist()
+    rows = sorted(Q.tolist(), key=lambda q: sum((a - b) ** 2 for a, b in zip(q, s)))
     out = []
-    for i in order:
-        if all(np.max(np.abs(Q[i] - q)) > tol for q in out):
-            out.append(Q[i])
-    return out
+    for q in rows:
+        if all(max(abs(a - b) for a, b in zip(q, o)) > tol for o in out):
+            out.append(q)
+    return [np.array(q) for q in out]
 
 
 def _fmt(x: float) -> str:
@@ -340,11 +340,11 @@ class IkServiceNode(Node):
             poses = T_fk[first:first + len(sols)]
             first += len(sols)
             if task.kind == 'axis':
-                # as solve_ik: the configurations with the target's tool roll first; when only
-                # the roll-flipped one is left, solve_ik gives the exact answer and details
-                full = IkTask(task.p, task.R, 'full')
-                upright = [j for j in range(len(sols))
-                           if full.errors(poses[j])[1] <= 0.5 * math.pi]
+                # as solve_ik: the configurations with the target's tool roll first (tool y
+                # axis on the target's side); when only the roll-flipped one is left, solve_ik
+                # gives the exact answer and details
+                y_t = task.R[:, 1]
+                upright = [j for j in range(len(sols)) if float(poses[j][:3, 1] @ y_t) >= 0.0]
                 if not upright:
                     self._solve_one(stamp, T, 'pitch', seed)
                     continue

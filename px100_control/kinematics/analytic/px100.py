@@ -139,9 +139,14 @@ def _waist_values(g: Px100Geometry, t: float, out: list) -> None:
 
 
 def _planar(g: Px100Geometry, t1: float, phi: float, P0: float, P1: float, P2: float,
-            out: list) -> None:
-    """Append the (<= 2) solutions with waist t1 and plane pitch sum phi; target P in F."""
-    u = P0 * math.cos(t1) + P1 * math.sin(t1)
+            out: list, u: Optional[float] = None) -> None:
+    """
+    Append the (<= 2) solutions with waist t1 and plane pitch sum phi; target P in F.
+
+    u: (optional) the target's distance along the waist direction, when the caller knows it.
+    """
+    if u is None:
+        u = P0 * math.cos(t1) + P1 * math.sin(t1)
     a3 = phi + g.g3
     wu = u - g.L4 * math.cos(a3) - g.u2
     wv = -P2 - g.L4 * math.sin(a3) - g.v2
@@ -160,11 +165,14 @@ def _planar(g: Px100Geometry, t1: float, phi: float, P0: float, P1: float, P2: f
     k = math.atan2(L3 * s, Lr + L3 * c)
     el = math.atan2(s, c)
     _, _, s3, s4 = g.signs
+    pi, two_pi = math.pi, _TWO_PI
     for sgn in ((1.0, -1.0) if s > 0.0 else (1.0,)):
         p2 = base - sgn * k - g.g1
         p3 = sgn * el - g.g2 + g.g1
         p4 = phi - p2 - p3
-        out.append((t1, _wrap(p2), _wrap(s3 * p3), _wrap(s4 * p4)))
+        # _wrap inlined (this is the hot path of the scalar solve)
+        out.append((t1, (p2 + pi) % two_pi - pi, (s3 * p3 + pi) % two_pi - pi,
+                    (s4 * p4 + pi) % two_pi - pi))
 
 
 def _pitch_branches(g: Px100Geometry, P0: float, P1: float, pitch: float,
@@ -191,11 +199,15 @@ def solve_xyz_pitch(g: Px100Geometry, x: float, y: float, z: float, pitch: float
     if azimuth is None and P0 * P0 + P1 * P1 < 1e-24:
         azimuth = 0.0
     out: list = []
-    for t, phi in _pitch_branches(g, P0, P1, pitch, azimuth):
+    # with the waist at the target azimuth a (front) or a + pi (back) the target lies at +-r
+    # along the waist direction: no cos/sin of the waist needed
+    r = math.hypot(P0, P1) if azimuth is None else None
+    for k, (t, phi) in enumerate(_pitch_branches(g, P0, P1, pitch, azimuth)):
         waists: list = []
         _waist_values(g, t, waists)
+        u = None if r is None else (r if k == 0 else -r)
         for t1 in waists:
-            _planar(g, t1, phi, P0, P1, P2, out)
+            _planar(g, t1, phi, P0, P1, P2, out, u)
         if n_front is not None and not n_front:
             n_front.append(len(out))
     return out
@@ -214,19 +226,29 @@ def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
     g = geometry(model)
     n_front: list = []
     sols = solve_xyz_pitch(g, x, y, z, pitch, n_front=n_front)
-    # (back branch, q): the front branches have the target's tool roll and come first
-    tagged = [(k >= n_front[0], q) for k, q in enumerate(sols)]
     if check_limits:
         lo, hi = g.lower, g.upper
-        tagged = [(b, q) for b, q in tagged if lo[0] - tol <= q[0] <= hi[0] + tol
-                  and lo[1] - tol <= q[1] <= hi[1] + tol and lo[2] - tol <= q[2] <= hi[2] + tol
-                  and lo[3] - tol <= q[3] <= hi[3] + tol]
-    if len(tagged) > 1:
+        keep = [lo[0] - tol <= q[0] <= hi[0] + tol and lo[1] - tol <= q[1] <= hi[1] + tol
+                and lo[2] - tol <= q[2] <= hi[2] + tol and lo[3] - tol <= q[3] <= hi[3] + tol
+                for q in sols]
+        front = [q for q, k in zip(sols[:n_front[0]], keep) if k]
+        back = [q for q, k in zip(sols[n_front[0]:], keep[n_front[0]:]) if k]
+    else:
+        front, back = sols[:n_front[0]], sols[n_front[0]:]
+    # the front branches have the target's tool roll: they come first
+    if len(front) > 1 or len(back) > 1:
         s = model.home if q_seed is None else q_seed
         s0, s1, s2, s3 = float(s[0]), float(s[1]), float(s[2]), float(s[3])
-        tagged.sort(key=lambda bq: (bq[0], (bq[1][0] - s0) ** 2 + (bq[1][1] - s1) ** 2
-                                    + (bq[1][2] - s2) ** 2 + (bq[1][3] - s3) ** 2))
-    return [q for _, q in tagged]
+
+        def cost(q):
+            return (q[0] - s0) ** 2 + (q[1] - s1) ** 2 + (q[2] - s2) ** 2 + (q[3] - s3) ** 2
+        for part in (front, back):
+            if len(part) == 2:
+                if cost(part[1]) < cost(part[0]):
+                    part.reverse()
+            elif len(part) > 2:
+                part.sort(key=cost)
+    return front + back
 
 
 # ---------------------------------------------------------------------------------------------
