@@ -80,6 +80,22 @@ def chain(model) -> Chain:
 # forward kinematics and Jacobian
 # ---------------------------------------------------------------------------------------------
 
+def _times_home(c: Chain, Rc, px: float, py_: float, pz: float):
+    """Return (R, p) of the product of exponentials (Rc, p) times the home pose M (lists)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = Rc
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = c.MR
+    mx, my, mz = c.Mp
+    R = [[r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
+          r00 * m02 + r01 * m12 + r02 * m22],
+         [r10 * m00 + r11 * m10 + r12 * m20, r10 * m01 + r11 * m11 + r12 * m21,
+          r10 * m02 + r11 * m12 + r12 * m22],
+         [r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
+          r20 * m02 + r21 * m12 + r22 * m22]]
+    p = [r00 * mx + r01 * my + r02 * mz + px, r10 * mx + r11 * my + r12 * mz + py_,
+         r20 * mx + r21 * my + r22 * mz + pz]
+    return R, p
+
+
 def fk_jacobian_py(c: Chain, q: Sequence[float]):
     """
     Return (R, p, Jw, Jv) at q on plain floats: pose and geometric Jacobian.
@@ -134,16 +150,7 @@ def fk_jacobian_py(c: Chain, q: Sequence[float]):
             px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
                            r10 * tx + r11 * ty + r12 * tz + py_,
                            r20 * tx + r21 * ty + r22 * tz + pz)
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = c.MR
-    mx, my, mz = c.Mp
-    R = [[r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
-          r00 * m02 + r01 * m12 + r02 * m22],
-         [r10 * m00 + r11 * m10 + r12 * m20, r10 * m01 + r11 * m11 + r12 * m21,
-          r10 * m02 + r11 * m12 + r12 * m22],
-         [r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
-          r20 * m02 + r21 * m12 + r22 * m22]]
-    p = [r00 * mx + r01 * my + r02 * mz + px, r10 * mx + r11 * my + r12 * mz + py_,
-         r20 * mx + r21 * my + r22 * mz + pz]
+    R, p = _times_home(c, ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)), px, py_, pz)
     ex, ey, ez = p
     # velocity of the end-effector point: v_s + omega x p
     Jv = [(ux + oy * ez - oz * ey, uy + oz * ex - ox * ez, uz + ox * ey - oy * ex)
@@ -187,16 +194,7 @@ def fk_py(c: Chain, q: Sequence[float]):
             px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
                            r10 * tx + r11 * ty + r12 * tz + py_,
                            r20 * tx + r21 * ty + r22 * tz + pz)
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = c.MR
-    mx, my, mz = c.Mp
-    R = [[r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
-          r00 * m02 + r01 * m12 + r02 * m22],
-         [r10 * m00 + r11 * m10 + r12 * m20, r10 * m01 + r11 * m11 + r12 * m21,
-          r10 * m02 + r11 * m12 + r12 * m22],
-         [r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
-          r20 * m02 + r21 * m12 + r22 * m22]]
-    p = [r00 * mx + r01 * my + r02 * mz + px, r10 * mx + r11 * my + r12 * mz + py_,
-         r20 * mx + r21 * my + r22 * mz + pz]
+    R, p = _times_home(c, ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)), px, py_, pz)
     return R, p
 
 

@@ -242,15 +242,19 @@ def reach_words(g: ArmPlane, T: np.ndarray) -> str:
     return f'target is {-best:.4g} m beyond reach (wrist point outside the arm annulus)'
 
 
+def position_reach_words(g: ArmPlane, p) -> str:
+    """Say by how much a position [m] is beyond the arm's reach ('' if it is not)."""
+    d = math.hypot(math.hypot(p[0], p[1]) - g.x1, p[2] - g.z1)
+    reach = g.L1 + g.L2 + abs(g.Lt)
+    return f'target is {d - reach:.4g} m beyond reach' if d > reach else ''
+
+
 def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     """Explain in words why a target has no closed-form candidate ('' if unknown)."""
     g = geometry(model)
     T = np.asarray(T_target, dtype=float)
     if mode == 'position':
-        p = T[:3, 3]
-        d = math.hypot(math.hypot(p[0], p[1]) - g.x1, p[2] - g.z1)
-        reach = g.L1 + g.L2 + abs(g.Lt)
-        return f'target is {d - reach:.4g} m beyond reach' if d > reach else ''
+        return position_reach_words(g, T[:3, 3])
     words = reach_words(g, T)
     if words:
         return words

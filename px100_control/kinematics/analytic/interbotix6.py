@@ -29,7 +29,8 @@ import numpy as np
 
 from px100_control.errors import RobotModelError
 from px100_control.kinematics.analytic.interbotix5 import (ArmPlane, planar_solutions,
-                                                           plane_geometry, reach_words,
+                                                           plane_geometry,
+                                                           position_reach_words, reach_words,
                                                            waist_angles)
 from px100_control.kinematics.trig_equations import wrap_angle
 
@@ -149,10 +150,7 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     g = geometry(model)
     T = np.asarray(T_target, dtype=float)
     if mode == 'position':
-        p = T[:3, 3]
-        d = math.hypot(math.hypot(p[0], p[1]) - g.x1, p[2] - g.z1)
-        reach = g.L1 + g.L2 + abs(g.Lt)
-        return f'target is {d - reach:.4g} m beyond reach' if d > reach else ''
+        return position_reach_words(g, T[:3, 3])
     return reach_words(g, T)
 
 
