@@ -205,6 +205,10 @@ class SimDriverNode(Node):
         for f, v in values.items():
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 return f'gains.{joint}.{f} must be a number, not {v!r}'
+            if math.isinf(v):
+                # found by the full fuzz campaign: an infinite i_clamp/u_clamp was accepted
+                return (f'gains.{joint}.{f} must be finite, not {v!r} (for no clamp give a '
+                        'value above the servo torque)')
         try:
             gains = self._to_gains(values, joint)
         except Px100Error as exc:

@@ -221,6 +221,8 @@ def test_parameters_are_validated_live(spin_node, rclpy_context):
     assert driver.sim.gains('elbow').i == 100.0
     for name, value, words in [('gains.shoulder.p', -1.0, 'negative'),
                                ('gains.shoulder.d', float('nan'), 'NaN'),
+                               ('gains.elbow.i_clamp', float('inf'), 'finite'),
+                               ('gains.elbow.u_clamp', float('-inf'), 'finite'),
                                ('gains.wrist_angle.p', 'stiff', 'number'),
                                ('gains.waist.d', 50.0, 'unstable'),
                                ('object_width', 0.2, 'wider'),
