@@ -160,25 +160,24 @@ def bench_jitter(seconds: float) -> dict:
 def bench_send_jitter(seconds: float) -> dict:
     """Return the driver's own publish-time jitter at 100 Hz (in-process, send side)."""
     import rclpy
-    from rclpy.executors import MultiThreadedExecutor
+    from px100_control.client.robot import SpinThread
+    from px100_control.ros.common import make_executor
     from px100_control.ros.sim_driver_node import SimDriverNode
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = SimDriverNode(context=ctx)
-    executor = MultiThreadedExecutor(context=ctx)
+    executor = make_executor(context=ctx)      # the executor the node runs in everywhere
     executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
+    spinner = SpinThread(executor, 'bench_sim_driver').start()
     try:
         time.sleep(1.0)
         n0 = len(node.publish_times)
         time.sleep(seconds)
         sent = list(node.publish_times)[n0:]
     finally:
-        executor.shutdown(timeout_sec=2.0)
+        spinner.stop()
         node.destroy_node()
         ctx.try_shutdown()
-        thread.join(5.0)
     dev = np.abs(np.diff(sent) - 0.01) * 1e3
     return {'messages': len(sent), 'p50_ms': round(float(np.percentile(dev, 50)), 3),
             'p99_ms': round(float(np.percentile(dev, 99)), 3),

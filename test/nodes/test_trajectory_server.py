@@ -287,6 +287,22 @@ def test_driver_silent_aborts_within_bound(fresh):
     assert 'joint_states' in env.client.last_diagnostic(stamp).message
 
 
+def test_goal_on_stale_joint_states_is_refused_then_accepted_again(fresh):
+    """A dead driver: a new goal is refused (its start is unknown); fresh states: accepted."""
+    env = fresh
+    env.set_params(state_timeout=0.5)
+    env.driver.silent = True
+    time.sleep(1.0)
+    stamp = env.client.send(['waist'], [(1.0, [0.2])])
+    assert env.client.wait_terminal(stamp, 5.0) == 'ABORTED'
+    msg = env.client.last_diagnostic(stamp).message
+    assert 'old' in msg and 'sim_driver' in msg, msg
+    env.driver.silent = False
+    time.sleep(0.3)
+    stamp = env.client.send(['waist'], [(1.0, [0.2])])
+    assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED'
+
+
 def test_blocked_joint_aborts_with_its_name(fresh):
     """A joint that does not follow: ABORTED with the joint and its tracking error."""
     env = fresh
