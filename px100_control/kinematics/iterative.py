@@ -313,40 +313,56 @@ class Task:
         L = T[:3].tolist()
         return self.errors_py([r[:3] for r in L], [L[0][3], L[1][3], L[2][3]])
 
-    def residual_py(self, R, p, Jw, Jv):
-        """Return (e (m,), rows (m lists of n)) of the task at a pose and Jacobian."""
+    def residual_cols(self, R, p, Jw, Jv):
+        """
+        Return (e (m,), cols (n sequences of m)): task error and Jacobian columns at a pose.
+
+        e = [orientation error (rad); position error (m)] ('position': position only), in the
+        base frame; cols[j] is the task's column of joint j (the Jacobian transposed).
+        """
         tp = self._p
         ep = [tp[0] - p[0], tp[1] - p[1], tp[2] - p[2]]
-        rows_v = [[col[k] for col in Jv] for k in range(3)]
-        if self.kind == 'position':
-            return ep, rows_v
-        rows_w = [[col[k] for col in Jw] for k in range(3)]
-        if self.kind == 'axis':
+        kind = self.kind
+        if kind == 'position':
+            return ep, Jv
+        if kind == 'axis':
             d = self._d
-            x = [R[0][0], R[1][0], R[2][0]]
-            cr = [x[1] * d[2] - x[2] * d[1], x[2] * d[0] - x[0] * d[2],
-                  x[0] * d[1] - x[1] * d[0]]
-            sn = math.sqrt(cr[0] ** 2 + cr[1] ** 2 + cr[2] ** 2)
-            dot = x[0] * d[0] + x[1] * d[1] + x[2] * d[2]
-            ang = math.atan2(sn, dot)
+            x0, x1, x2 = R[0][0], R[1][0], R[2][0]
+            c0, c1, c2 = x1 * d[2] - x2 * d[1], x2 * d[0] - x0 * d[2], x0 * d[1] - x1 * d[0]
+            sn = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+            dot = x0 * d[0] + x1 * d[1] + x2 * d[2]
             if sn > 1e-12:
-                ew = [ci * (ang / sn) for ci in cr]
+                k = math.atan2(sn, dot) / sn
+                ew = [c0 * k, c1 * k, c2 * k]
             elif dot < 0:          # opposite: turn about any axis perpendicular to x
-                perp = [0.0, x[2], -x[1]] if abs(x[0]) < 0.9 else [-x[2], 0.0, x[0]]
+                perp = [0.0, x2, -x1] if abs(x0) < 0.9 else [-x2, 0.0, x0]
                 norm = math.sqrt(sum(t * t for t in perp))
                 ew = [t / norm * math.pi for t in perp]
             else:
                 ew = [0.0, 0.0, 0.0]
-            # rotation about x does not move x: project the angular rows
-            xw = [x[0] * rows_w[0][j] + x[1] * rows_w[1][j] + x[2] * rows_w[2][j]
-                  for j in range(len(Jw))]
-            rows_w = [[rows_w[k][j] - x[k] * xw[j] for j in range(len(Jw))] for k in range(3)]
-            return ew + ep, rows_w + rows_v
+            # rotation about x does not move x: project the angular part of every column
+            cols = []
+            for (w0, w1, w2), v in zip(Jw, Jv):
+                xw = x0 * w0 + x1 * w1 + x2 * w2
+                cols.append((w0 - x0 * xw, w1 - x1 * xw, w2 - x2 * xw) + tuple(v))
+            return ew + ep, cols
         tR = self._R
         # rotation error in the base frame: log(R_t R^T)
         E = [[tR[i][0] * R[j][0] + tR[i][1] * R[j][1] + tR[i][2] * R[j][2] for j in range(3)]
              for i in range(3)]
-        return _rotation_vector(E) + ep, rows_w + rows_v
+        return _rotation_vector(E) + ep, [tuple(w) + tuple(v) for w, v in zip(Jw, Jv)]
+
+    def residual_py(self, R, p, Jw, Jv):
+        """Return (e (m,), rows (m lists of n)) of the task at a pose and Jacobian."""
+        e, cols = self.residual_cols(R, p, Jw, Jv)
+        return e, [list(r) for r in zip(*cols)]
+
+    def errors_of_residual(self, e) -> Tuple[float, float]:
+        """Return (position error [m], orientation error [rad]) from ``residual_cols``'s e."""
+        if self.kind == 'position':
+            return math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]), 0.0
+        return (math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5]),
+                math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -357,52 +373,98 @@ def _dot(a, b) -> float:
     return sum(map(mul, a, b))
 
 
-def _cholesky_solve(A, b) -> Vec:
-    """Solve A x = b for a symmetric positive-definite A (nested lists); A is overwritten."""
+def _cholesky(A) -> list:
+    """Return the lower Cholesky factor L (nested lists) of a symmetric positive-definite A."""
     n = len(A)
+    L = [[0.0] * n for _ in range(n)]
     for j in range(n):
-        Aj = A[j]
-        s = Aj[j] - _dot(Aj[:j], Aj[:j])
+        Lj = L[j]
+        s = A[j][j]
+        for k in range(j):
+            s -= Lj[k] * Lj[k]
         d = math.sqrt(s) if s > 0.0 else 1e-150
-        Aj[j] = d
+        Lj[j] = d
+        inv = 1.0 / d
         for i in range(j + 1, n):
-            Ai = A[i]
-            Ai[j] = (Ai[j] - _dot(Ai[:j], Aj[:j])) / d
+            Li = L[i]
+            s = A[i][j]
+            for k in range(j):
+                s -= Li[k] * Lj[k]
+            Li[j] = s * inv
+    return L
+
+
+def _cholesky_apply(L, b) -> Vec:
+    """Solve L L^T x = b for x, L from ``_cholesky``."""
+    n = len(L)
     y = [0.0] * n
     for i in range(n):
-        Ai = A[i]
-        y[i] = (b[i] - _dot(Ai[:i], y[:i])) / Ai[i]
+        Li = L[i]
+        s = b[i]
+        for k in range(i):
+            s -= Li[k] * y[k]
+        y[i] = s / Li[i]
     x = [0.0] * n
     for i in range(n - 1, -1, -1):
-        x[i] = (y[i] - sum(A[k][i] * x[k] for k in range(i + 1, n))) / A[i][i]
+        s = y[i]
+        for k in range(i + 1, n):
+            s -= L[k][i] * x[k]
+        x[i] = s / L[i][i]
     return x
+
+
+def _cholesky_solve(A, b) -> Vec:
+    """Solve A x = b for a symmetric positive-definite A (nested lists)."""
+    return _cholesky_apply(_cholesky(A), b)
+
+
+def _gram(vectors, lam2: float) -> list:
+    """Return the Gram matrix [v_i . v_j] + lam2 I of a list of equal-length vectors."""
+    n = len(vectors)
+    G = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        vi = vectors[i]
+        Gi = G[i]
+        for j in range(i + 1):
+            Gi[j] = G[j][i] = sum(map(mul, vi, vectors[j]))
+        Gi[i] += lam2
+    return G
 
 
 def _dls_apply(rows, lam2: float):
     """
     Return a function b -> J# b with J# = J^T (J J^T + lam2 I)^-1 (rows: m lists of n).
 
-    Uses the smaller of the m x m and n x n normal matrices (push-through identity).
+    Uses the smaller of the m x m and n x n normal matrices (push-through identity), factored
+    once (Cholesky) for every right-hand side.
     """
     m, n = len(rows), len(rows[0])
+    cols = list(zip(*rows))
     if m <= n:
-        G = [[_dot(ri, rj) for rj in rows] for ri in rows]
-        for i in range(m):
-            G[i][i] += lam2
-        cols = list(zip(*rows))
+        L = _cholesky(_gram(rows, lam2))
 
         def apply(b):
-            y = _cholesky_solve([r[:] for r in G], b)
-            return [_dot(col, y) for col in cols]
+            y = _cholesky_apply(L, b)
+            return [sum(map(mul, col, y)) for col in cols]
         return apply
-    cols = list(zip(*rows))
-    G = [[_dot(ca, cb) for cb in cols] for ca in cols]
-    for i in range(n):
-        G[i][i] += lam2
+    L = _cholesky(_gram(cols, lam2))
 
     def apply_n(b):
-        return _cholesky_solve([r[:] for r in G], [_dot(col, b) for col in cols])
+        return _cholesky_apply(L, [sum(map(mul, col, b)) for col in cols])
     return apply_n
+
+
+def _dls_solve(cols, e, lam2: float) -> Vec:
+    """
+    Return J# e = J^T (J J^T + lam2 I)^-1 e for J given by its columns (n sequences of m).
+
+    The smaller normal matrix is factored: (J^T J + lam2 I)^-1 J^T e when n <= m.
+    """
+    if len(cols) <= len(e):
+        b = [sum(map(mul, col, e)) for col in cols]
+        return _cholesky_apply(_cholesky(_gram(cols, lam2)), b)
+    y = _cholesky_apply(_cholesky(_gram(list(zip(*cols)), lam2)), e)
+    return [sum(map(mul, col, y)) for col in cols]
 
 
 def _matvec(rows, x) -> Vec:
@@ -455,37 +517,41 @@ def _not_converged(method, q, it, pe, oe) -> IkResult:
         f'orientation error {oe:.3g} rad)'))
 
 
-def _dls_step(c: Chain, q: Vec, e: Vec, rows, lam2: float, alpha: float, gain: float,
+def _dls_step(c: Chain, q: Vec, e: Vec, cols, lam2: float, alpha: float, gain: float,
               secondary: Optional[str], qn: Vec, check_limits: bool):
     """
-    Return (dq, dn): the DLS step and the null-space secondary direction (None without one).
+    Return (step, dn): the DLS step and the null-space secondary direction (None without one).
 
-    Joints sitting at a limit that the step would push further are locked (their Jacobian
-    column and secondary component removed) and the step recomputed, so a secondary task whose
-    optimum lies on a limit settles there instead of fighting the projection.
+    cols: the task Jacobian's columns (``Task.residual_cols``). Joints sitting at a limit that
+    the step would push further are locked (their Jacobian column and secondary component
+    removed) and the step recomputed, so a secondary task whose optimum lies on a limit settles
+    there instead of fighting the projection.
     """
     n = len(q)
+    lo, hi, wraps = c.lo, c.hi, c.wraps
+    zero = (0.0,) * len(e)
     locked: list = []
-    dq: Vec = []
+    step: Vec = []
     dn: Optional[Vec] = None
     for _ in range(n):
-        rows_l = rows if not locked else [
-            [0.0 if j in locked else x for j, x in enumerate(r)] for r in rows]
-        pinv = _dls_apply(rows_l, lam2)
-        dq = [alpha * x for x in pinv(e)]
-        step = dq
-        if secondary is not None:
-            g = _secondary(secondary, q, qn, c.lo, c.hi)
+        cols_l = cols if not locked else [zero if j in locked else col
+                                          for j, col in enumerate(cols)]
+        if secondary is None:
+            step = [alpha * x for x in _dls_solve(cols_l, e, lam2)]
+        else:
+            rows_l = [list(r) for r in zip(*cols_l)]
+            pinv = _dls_apply(rows_l, lam2)
+            g = _secondary(secondary, q, qn, lo, hi)
             if locked:
                 g = [0.0 if j in locked else x for j, x in enumerate(g)]
             jg = pinv(_matvec(rows_l, g))
             dn = [x - y for x, y in zip(g, jg)]
-            step = [x + gain * y for x, y in zip(dq, dn)]
+            step = [alpha * x + gain * y for x, y in zip(pinv(e), dn)]
         if not check_limits:
             return step, dn
-        newly = [j for j in range(n) if j not in locked and not c.wraps[j] and (
-            (q[j] <= c.lo[j] + 1e-12 and step[j] < 0.0)
-            or (q[j] >= c.hi[j] - 1e-12 and step[j] > 0.0))]
+        newly = [j for j in range(n) if not wraps[j] and j not in locked and (
+            (q[j] <= lo[j] + 1e-12 and step[j] < 0.0)
+            or (q[j] >= hi[j] - 1e-12 and step[j] > 0.0))]
         if not newly:
             return step, dn
         locked.extend(newly)
@@ -527,7 +593,8 @@ def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str]
     best_err, best_it = math.inf, 0
     for it in range(max_iterations + 1):
         R, p, Jw, Jv = fk_jacobian_py(c, q)
-        pe, oe = task.errors_py(R, p)
+        e, cols = task.residual_cols(R, p, Jw, Jv)
+        pe, oe = task.errors_of_residual(e)
         met = pe <= tol_position and oe <= tol_orientation
         if met and secondary is None:
             return _finish('dls', True, q, it, pe, oe)
@@ -537,9 +604,8 @@ def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str]
             best_err, best_it = pe + oe, it
         elif met_q is None and it - best_it > stall_iterations:
             break           # stuck in a local minimum (e.g. on a joint limit): give up early
-        e, rows = task.residual_py(R, p, Jw, Jv)
         lam2 = damping * damping + 0.01 * sum(x * x for x in e)
-        dq, dn = _dls_step(c, q, e, rows, lam2, alpha, gain, secondary, qn, check_limits)
+        dq, dn = _dls_step(c, q, e, cols, lam2, alpha, gain, secondary, qn, check_limits)
         if dn is not None:
             dn_norm = math.sqrt(sum(x * x for x in dn))
             if met:

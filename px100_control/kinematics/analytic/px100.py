@@ -213,6 +213,96 @@ def solve_xyz_pitch(g: Px100Geometry, x: float, y: float, z: float, pitch: float
     return out
 
 
+def _scalar_solver(g: Px100Geometry):
+    """
+    Return solve(x, y, z, pitch, tol) -> ([front], [back]): the in-limit solutions, unsorted.
+
+    The scalar hot path with every geometric constant bound as a local: the same algebra as
+    ``solve_xyz_pitch`` + ``_planar`` (both waist branches, both elbow signs, the +-2 pi copies
+    of the waist that fit its limits), inlined. Front = waist toward the target.
+    """
+    base_frame = g.frame_is_base
+    (f00, f01, f02), (f10, f11, f12), (f20, f21, f22) = g.R_F.T.tolist()
+    o0, o1, o2 = (float(v) for v in g.origin)
+    mu, g1, g2, g3 = g.mu, g.g1, g.g2, g.g3
+    L4, u2, v2, Lr, L3 = g.L4, g.u2, g.v2, g.Lr, g.L3
+    k0, inv2 = Lr * Lr + L3 * L3, 1.0 / (2.0 * Lr * L3)
+    s3, s4 = g.signs[2], g.signs[3]
+    lo0, lo1, lo2, lo3 = g.lower
+    hi0, hi1, hi2, hi3 = g.upper
+    cd, sd = math.cos(g3 - mu), math.sin(g3 - mu)
+    pi, two_pi, eps = math.pi, _TWO_PI, _REACH_EPS
+    atan2, sqrt, cos, sin = math.atan2, math.sqrt, math.cos, math.sin
+    g12 = g1 - g2
+
+    def wrap(v):
+        return v if -pi <= v < pi else (v + pi) % two_pi - pi
+
+    def branch(t, phi, u, P2, ca3, sa3, tol, out):
+        # the planar shoulder/elbow/wrist chain of one waist branch (see _planar)
+        wu = u - L4 * ca3 - u2
+        wv = -P2 - L4 * sa3 - v2
+        c = (wu * wu + wv * wv - k0) * inv2
+        if c > 1.0:
+            if c > 1.0 + eps:
+                return
+            c = 1.0
+        elif c < -1.0:
+            if c < -1.0 - eps:
+                return
+            c = -1.0
+        s = sqrt(1.0 - c * c)
+        bse = atan2(wv, wu) - g1
+        k = atan2(L3 * s, Lr + L3 * c)
+        el = atan2(s, c)
+        t = wrap(t)
+        tl, th = lo0 - tol, hi0 + tol
+        for p2, p3 in ((bse - k, el + g12), (bse + k, g12 - el)) if s > 0.0 else (
+                (bse - k, el + g12),):
+            q1 = wrap(p2)
+            if not lo1 - tol <= q1 <= hi1 + tol:
+                continue
+            q2 = wrap(s3 * p3)
+            if not lo2 - tol <= q2 <= hi2 + tol:
+                continue
+            q3 = wrap(s4 * (phi - p2 - p3))
+            if not lo3 - tol <= q3 <= hi3 + tol:
+                continue
+            if tl <= t <= th:
+                out.append((t, q1, q2, q3))
+            if t + two_pi <= th:
+                out.append((t + two_pi, q1, q2, q3))
+            if t - two_pi >= tl:
+                out.append((t - two_pi, q1, q2, q3))
+
+    def solve(x, y, z, pitch, tol):
+        if base_frame:
+            P0, P1, P2 = x, y, z
+        else:
+            dx, dy, dz = x - o0, y - o1, z - o2
+            P0 = f00 * dx + f01 * dy + f02 * dz
+            P1 = f10 * dx + f11 * dy + f12 * dz
+            P2 = f20 * dx + f21 * dy + f22 * dz
+        r2 = P0 * P0 + P1 * P1
+        a = atan2(P1, P0) if r2 >= 1e-24 else 0.0
+        r = sqrt(r2)
+        cp, sp = cos(pitch), sin(pitch)
+        front: list = []
+        back: list = []
+        # front: a3 = pitch + (g3 - mu); back: a3 = pi - (pitch - (g3 - mu))
+        branch(a, pitch - mu, r, P2, cp * cd - sp * sd, sp * cd + cp * sd, tol, front)
+        branch(a + pi, pi - pitch - mu, -r, P2, -(cp * cd + sp * sd), sp * cd - cp * sd,
+               tol, back)
+        return front, back
+    return solve
+
+
+@functools.lru_cache(maxsize=64)
+def _model_solver(model):
+    """Return the cached ``_scalar_solver`` of a model."""
+    return _scalar_solver(geometry(model))
+
+
 def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
                  q_seed: Optional[Sequence[float]] = None, check_limits: bool = True,
                  tol: float = 1e-9) -> List[tuple]:
@@ -222,32 +312,22 @@ def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
     The fast scalar path (plain floats, no numpy): the front branches (waist toward the target,
     tool roll 0 as Interbotix means it) before the back ones, each ordered by the seed 000 cost
     function (Euclidean distance to q_seed, default model.home). Input must be finite.
+    Without ``check_limits`` every closed-form solution is returned (``solve_xyz_pitch``).
     """
-    g = geometry(model)
-    n_front: list = []
-    sols = solve_xyz_pitch(g, x, y, z, pitch, n_front=n_front)
     if check_limits:
-        lo, hi = g.lower, g.upper
-        keep = [lo[0] - tol <= q[0] <= hi[0] + tol and lo[1] - tol <= q[1] <= hi[1] + tol
-                and lo[2] - tol <= q[2] <= hi[2] + tol and lo[3] - tol <= q[3] <= hi[3] + tol
-                for q in sols]
-        front = [q for q, k in zip(sols[:n_front[0]], keep) if k]
-        back = [q for q, k in zip(sols[n_front[0]:], keep[n_front[0]:]) if k]
+        front, back = _model_solver(model)(x, y, z, pitch, tol)
     else:
+        n_front: list = []
+        sols = solve_xyz_pitch(geometry(model), x, y, z, pitch, n_front=n_front)
         front, back = sols[:n_front[0]], sols[n_front[0]:]
     # the front branches have the target's tool roll: they come first
     if len(front) > 1 or len(back) > 1:
         s = model.home if q_seed is None else q_seed
         s0, s1, s2, s3 = float(s[0]), float(s[1]), float(s[2]), float(s[3])
-
-        def cost(q):
-            return (q[0] - s0) ** 2 + (q[1] - s1) ** 2 + (q[2] - s2) ** 2 + (q[3] - s3) ** 2
         for part in (front, back):
-            if len(part) == 2:
-                if cost(part[1]) < cost(part[0]):
-                    part.reverse()
-            elif len(part) > 2:
-                part.sort(key=cost)
+            if len(part) > 1:
+                part.sort(key=lambda q: (q[0] - s0) ** 2 + (q[1] - s1) ** 2
+                          + (q[2] - s2) ** 2 + (q[3] - s3) ** 2)
     return front + back
 
 
