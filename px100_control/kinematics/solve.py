@@ -484,6 +484,83 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
     return res
 
 
+@functools.lru_cache(maxsize=64)
+def scalar_pitch_solver(model):
+    """Return the px100-family scalar solver when 'pitch' requests can use it, else None."""
+    if model.analytic_ik != 'px100' or model.dof != 4 or not pitch_applies(model):
+        return None
+    from px100_control.kinematics.analytic import px100
+    g = px100.geometry(model)
+    # the arm frame must be the base frame up to a translation (same azimuths) and the tool
+    # frame at q = 0 aligned with it (front branch = tool roll 0)
+    if not (np.allclose(g.R_F, np.eye(3), atol=1e-12) and g.tool_is_identity):
+        return None
+    return px100._model_solver(model)
+
+
+def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[float],
+                       tol_position: float = 1e-9, tol_orientation: float = 1e-9):
+    """
+    Solve one 'pitch'-mode target on plain floats; return None when it needs ``solve_ik``.
+
+    The same answer as ``solve_ik(model, T, mode='pitch', q_seed=q_seed)`` for px100-family
+    arms, without numpy: the target's roll/yaw handled as ``pitch_target`` does, every
+    closed-form branch in the limits, the ones with the target's tool roll first, each group by
+    distance to q_seed, the first verified by FK. None means "not settled here" (another arm,
+    a target on the Euler singularity, no solution in the limits, or the first solution not
+    within tolerance): ``solve_ik`` gives the exact answer and reason.
+
+    :param x, y, z: target position [m], base frame; R: rotation, 3 rows of 3 (finite, valid)
+    :return: (solutions [tuples], position_error [m], orientation_error [rad],
+        unreachable_roll [rad], unreachable_yaw [rad], roll_flipped) or None; roll_flipped:
+        only configurations with the tool upside down are in the limits (solve_ik's
+        ``details['roll_flipped']``, the dropped roll then measured from them)
+    """
+    solver = scalar_pitch_solver(model)
+    if solver is None:
+        return None
+    (r00, _, _), (r10, _, _), (r20, r21, r22) = R
+    cy = math.hypot(r00, r10)
+    if cy <= 1e-9:
+        return None
+    pi = math.pi
+    roll, pitch, yaw = math.atan2(r21, r22), math.atan2(-r20, cy), math.atan2(r10, r00)
+    if abs(roll) > pi / 2:
+        roll, pitch, yaw = _wrap(roll + pi), _wrap(pi - pitch), _wrap(yaw + pi)
+    a = target_azimuth(model, (x, y, z))
+    outward = abs(_wrap(yaw - a)) <= pi / 2
+    forced = a if outward else _wrap(a + pi)
+    # the solver's pitch is measured from the outward direction
+    front, back = solver(x, y, z, pitch if outward else pi - pitch, 1e-9)
+    upright, other = (front, back) if outward else (back, front)
+    flipped = not upright
+    if flipped:
+        if not other:
+            return None
+        roll = _wrap(roll - pi)          # only the upside-down configurations are in limits
+    s0, s1, s2, s3 = (float(v) for v in q_seed)
+
+    def cost(q):
+        return (q[0] - s0) ** 2 + (q[1] - s1) ** 2 + (q[2] - s2) ** 2 + (q[3] - s3) ** 2
+    upright.sort(key=cost)
+    other.sort(key=cost)
+    sols: list = []
+    for q in upright + other:
+        if all(max(abs(q[0] - o[0]), abs(q[1] - o[1]), abs(q[2] - o[2]),
+                   abs(q[3] - o[3])) > 1e-9 for o in sols):
+            sols.append(q)
+    Rq, p = fk_py(chain(model), sols[0])
+    pe = math.sqrt((p[0] - x) ** 2 + (p[1] - y) ** 2 + (p[2] - z) ** 2)
+    cp = math.cos(pitch)
+    d0, d1, d2 = cp * math.cos(forced), cp * math.sin(forced), -math.sin(pitch)
+    x0, x1, x2 = Rq[0][0], Rq[1][0], Rq[2][0]
+    c0, c1, c2 = x1 * d2 - x2 * d1, x2 * d0 - x0 * d2, x0 * d1 - x1 * d0
+    oe = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), x0 * d0 + x1 * d1 + x2 * d2)
+    if pe > tol_position or oe > tol_orientation:
+        return None
+    return sols, pe, oe, roll, _wrap(yaw - forced), flipped
+
+
 def _pitch_rows_to_poses(model, rows: np.ndarray) -> np.ndarray:
     return np.array([_pose_sxyz((x, y, z), 0.0, pitch, target_azimuth(model, (x, y, z)))
                      for x, y, z, pitch in rows])

@@ -29,11 +29,13 @@ has one, iterative otherwise or as a fallback); ``tol_position`` [m], ``tol_orie
 The IK itself is :func:`px100_control.kinematics.solve.solve_ik` / ``solve_path``.
 
 Throughput path: requests are read serialized (header, frame and pose straight from the CDR
-bytes), every request already queued is answered in the same executor wake-up, and when at least
-``BATCH_MIN`` 'pitch' requests are waiting they are solved with one vectorised call of the
-model's analytic batch solver (``solve_ik_batch``), verified as solve_ik verifies (same task,
-FK residuals, tolerances; anything unsettled goes through solve_ik). Replies reuse preallocated
-messages. The node spins single-threaded.
+bytes) and every request already queued is answered in the same executor wake-up. 'pitch'
+requests to a px100-family arm are solved on plain floats (``solve_pitch_scalar``: the
+solve_ik answer, verified by FK; anything it does not settle goes through solve_ik); for other
+arms with an analytic batch solver, when at least ``BATCH_MIN`` are waiting, with one
+vectorised call (``solve_ik_batch``), verified the same way. Replies are written as CDR bytes
+(``ros.cdr``, checked at start against the middleware's deserializer; preallocated messages
+otherwise). The node spins single-threaded.
 """
 import math
 import struct
@@ -48,8 +50,10 @@ from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
 from px100_control.kinematics.solve import make_task as ik_make_task
-from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
+from px100_control.kinematics.solve import (METHODS, scalar_pitch_solver, solve_ik, solve_path,
+                                            solve_pitch_scalar)
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
+from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
                                       robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
@@ -149,8 +153,11 @@ class IkServiceNode(Node):
         if self.model.analytic_ik:
             if hasattr(get_solver(self.model.analytic_ik), 'solve_batch'):
                 self._chain = ik_chain(self.model)
+        self._scalar = scalar_pitch_solver(self.model) is not None
         self._load_parameters()
         self.add_post_set_parameters_callback(lambda params: self._load_parameters())
+        self._raw_replies = cdr.matches_rclpy()
+        self._solution_writer = cdr.JointStateWriter(self._names)
 
         self._pub_solution = self.create_publisher(JointState, robot_topic(self, 'ik/solution'),
                                                    REQUEST_QOS)
@@ -208,8 +215,9 @@ class IkServiceNode(Node):
         self._mode = MODES[self._mode_param]
         self._orientation_tol = float(get('orientation_tolerance').value)
         self._nominal = np.asarray(get('nominal_pose').value, float)
-        self._batch_ready = (self._chain is not None
-                             and str(get('method').value) in ('auto', 'analytic'))
+        analytic = str(get('method').value) in ('auto', 'analytic')
+        self._batch_ready = self._chain is not None and analytic
+        self._scalar_ready = self._scalar and analytic and self._mode == 'pitch'
         self._kwargs = {'method': str(get('method').value),
                         'tol_position': float(get('tol_position').value),
                         'tol_orientation': float(get('tol_orientation').value),
@@ -251,12 +259,16 @@ class IkServiceNode(Node):
                 break
             batch.append(queued)
         seed = self._seed()
+        seed_list = seed.tolist()
         fast = []
         for req in batch:
             try:
                 stamp, frame, values = parse_pose_stamped(req)
             except Exception as exc:  # noqa: B902 - unreadable bytes: no id to answer to
                 self.get_logger().error(f'unreadable ik/request dropped: {exc!r}')
+                continue
+            if self._scalar_ready and frame in self._frames and self._solve_scalar(
+                    stamp, values, seed_list):
                 continue
             try:
                 T, mode = self._target(frame, values)
@@ -272,6 +284,33 @@ class IkServiceNode(Node):
         else:
             for stamp, T in fast:
                 self._solve_one(stamp, T, 'pitch', seed)
+
+    def _solve_scalar(self, stamp, values, seed_list) -> bool:
+        """Answer a 'pitch' request on plain floats; False when solve_ik must take it."""
+        x, y, z, qx, qy, qz, qw = values
+        n2 = qx * qx + qy * qy + qz * qz + qw * qw
+        # NaN/inf, an all-zero (position-only) or badly scaled quaternion: the general path
+        if not (0.998 <= n2 <= 1.002 and math.isfinite(x + y + z)):
+            return False
+        k = 2.0 / n2
+        R = [[1.0 - k * (qy * qy + qz * qz), k * (qx * qy - qz * qw), k * (qx * qz + qy * qw)],
+             [k * (qx * qy + qz * qw), 1.0 - k * (qx * qx + qz * qz), k * (qy * qz - qx * qw)],
+             [k * (qx * qz - qy * qw), k * (qy * qz + qx * qw), 1.0 - k * (qx * qx + qy * qy)]]
+        try:
+            out = solve_pitch_scalar(self.model, x, y, z, R, seed_list,
+                                     self._kwargs['tol_position'],
+                                     self._kwargs['tol_orientation'])
+        except Exception:  # noqa: B902 - the general path answers (and reports) instead
+            return False
+        if out is None:
+            return False
+        sols, pe, oe, roll, yaw, _ = out
+        values = [('mode', 'pitch'), ('method', self._batch_method), ('iterations', '0'),
+                  ('position_error', _fmt(pe)), ('orientation_error', _fmt(oe)),
+                  ('solutions', str(len(sols))), ('unreachable_roll', _fmt(roll)),
+                  ('unreachable_yaw', _fmt(yaw))]
+        self._reply(stamp, sols[0], DiagnosticStatus.OK, self._pitch_message(roll, yaw), values)
+        return True
 
     def _take_queued(self):
         """Return the next request waiting in the subscription queue, or None."""
@@ -363,8 +402,11 @@ class IkServiceNode(Node):
     def _solved_message(self, res, mode: str) -> str:
         if mode != 'pitch':
             return 'solved'
-        roll = abs(float(res.details.get('unreachable_roll', 0.0)))
-        yaw = abs(float(res.details.get('unreachable_yaw', 0.0)))
+        return self._pitch_message(float(res.details.get('unreachable_roll', 0.0)),
+                                   float(res.details.get('unreachable_yaw', 0.0)))
+
+    def _pitch_message(self, roll: float, yaw: float) -> str:
+        roll, yaw = abs(roll), abs(yaw)
         if max(roll, yaw) <= self._orientation_tol:
             return 'solved'
         return (f'solved (warning: the target roll {roll:.4g} rad and yaw {yaw:.4g} rad that a '
@@ -383,7 +425,17 @@ class IkServiceNode(Node):
         return vals
 
     def _reply(self, stamp, q, level: int, message: str, values) -> None:
-        """Publish the solution and the status of one request (preallocated messages)."""
+        """Publish the solution and the status of one request (CDR bytes or reused messages)."""
+        if self._raw_replies:
+            hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
+            self._pub_solution.publish(self._solution_writer.write(
+                stamp.sec, stamp.nanosec, () if q is None else [float(x) for x in q]))
+            self._pub_status.publish(cdr.diagnostic_status(
+                level, self._diag_name, message, hardware_id, values))
+            if level != DiagnosticStatus.OK:
+                self.get_logger().warning(f'ik request {hardware_id}: {message}',
+                                          throttle_duration_sec=1.0)
+            return
         sol = self._solution
         sol.header.stamp = stamp
         sol.position = [] if q is None else [float(x) for x in q]

@@ -381,3 +381,41 @@ def test_scalar_fast_path_equals_reference_algebra(name):
         got_front, got_back = sorted(got[:len(ref_front)]), sorted(got[len(ref_front):])
         for a, b in zip(got_front + got_back, ref_front + ref_back):
             assert max(abs(u - v) for u, v in zip(a, b)) < 1e-12
+
+
+@pytest.mark.parametrize('name', ['px100', 'mobile_px100'])
+def test_scalar_pitch_request_equals_solve_ik(name):
+    """
+    solve_pitch_scalar (the ik_service hot path) gives solve_ik's 'pitch' answer exactly.
+
+    1,500 FK targets, a third with random roll and yaw the arm cannot reach, seeds from other
+    configurations: same solutions in the same order (1e-12), same dropped roll/yaw and
+    roll-flip flag; when it declines (None) solve_ik finds no solution either.
+    """
+    from px100_control.kinematics.solve import solve_pitch_scalar
+    model = load_robot(name)
+    rng = np.random.default_rng(5)
+    Q = model.random_configurations(1500, rng)
+    declined = 0
+    for i, T in enumerate(fk_batch(chain(model), Q)):
+        T = T.copy()
+        if i % 3 == 1:
+            T[:3, :3] = (euler_sxyz_to_matrix(0, 0, rng.uniform(-3, 3)) @ T[:3, :3]
+                         @ euler_sxyz_to_matrix(rng.uniform(-3, 3), 0, 0))
+        seed = Q[(i * 7) % len(Q)]
+        fast = solve_pitch_scalar(model, *T[:3, 3].tolist(), T[:3, :3].tolist(),
+                                  seed.tolist())
+        ref = solve_ik(model, T, mode='pitch', q_seed=seed)
+        if fast is None:
+            declined += 1
+            assert not ref.success, (i, ref.solutions)
+            continue
+        sols, pe, oe, roll, yaw, flipped = fast
+        assert ref.success and len(sols) == len(ref.solutions)
+        for a, b in zip(sols, ref.solutions):
+            np.testing.assert_allclose(a, b, atol=1e-12)
+        assert pe <= TOL and oe <= TOL
+        assert abs(roll - ref.details['unreachable_roll']) < 1e-12
+        assert abs(yaw - ref.details['unreachable_yaw']) < 1e-12
+        assert flipped == bool(ref.details.get('roll_flipped'))
+    assert declined < 250          # only the perturbed targets that became unreachable
