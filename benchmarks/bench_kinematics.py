@@ -137,6 +137,13 @@ def _ours(model, Q, targets, quick):
                      ', math module)', 'median_us': float(np.median(t)), 'min_us': float(t.min()),
                      'p90_us': float(np.percentile(t, 90)), 'success': ok / len(targets),
                      'n': len(targets), 'note': 'all branches, limit-filtered, seed-ordered'})
+    if module is not None and hasattr(module, 'ik_fast'):
+        home = [float(x) for x in model.home]
+        rows.append(_measure(f'px100_control closed form ik_fast (analytic.{model.analytic_ik}'
+                             ', math module)', model, targets,
+                             lambda T: module.ik_fast(model, T, home)[0],
+                             note='first swivel from the seed one with an in-limit branch, '
+                                  'the branch nearest the seed'))
     rows.append(_measure("px100_control solve_ik(mode='full') auto", model, targets,
                          lambda T: solve_ik(model, T, mode='full').q,
                          note=f'analytic: {model.analytic_ik}' if model.analytic_ik else 'dls'))
@@ -282,20 +289,63 @@ def _urdf_chain_elements(model):
     return out
 
 
+def _ets_from_poe(model):
+    """
+    Return a roboticstoolbox ETS of a PoE model whose joint axes at q = 0 are +-x/y/z, or None.
+
+    Each joint: translate from the previous joint's axis point to this one's (the point of
+    the axis closest to the origin), rotate about the coordinate axis (flipped for -x/y/z),
+    with the joint's limits; then translate to the home pose M (identity rotation only).
+    """
+    import roboticstoolbox as rtb
+    S, M = np.asarray(model.S_list, float), np.asarray(model.M, float)
+    if np.abs(M[:3, :3] - np.eye(3)).max() > 1e-12:
+        return None
+    moves = (rtb.ET.tx, rtb.ET.ty, rtb.ET.tz)
+    turns = (rtb.ET.Rx, rtb.ET.Ry, rtb.ET.Rz)
+    ets, prev = rtb.ETS(), np.zeros(3)
+    for i in range(model.dof):
+        w, v = S[:3, i], S[3:, i]
+        k = int(np.argmax(np.abs(w)))
+        if model.joint_types[i] != 'revolute' or abs(abs(w[k]) - 1.0) > 1e-12:
+            return None
+        point = np.cross(w, v)
+        for ax in range(3):
+            if point[ax] != prev[ax]:
+                ets *= moves[ax](float(point[ax] - prev[ax]))
+        prev = point
+        ets *= turns[k](qlim=[float(model.lower[i]), float(model.upper[i])],
+                        flip=bool(w[k] < 0))
+    for ax in range(3):
+        if M[ax, 3] != prev[ax]:
+            ets *= moves[ax](float(M[ax, 3] - prev[ax]))
+    return ets
+
+
 def _rtb_rows(model, targets):
     import roboticstoolbox as rtb
     table = (model.extra.get('alternative_models') or {}).get('dh')
-    if table is None:
-        return [{'name': 'roboticstoolbox ik_LM', 'skipped': 'no DH table for this robot'}]
-    from px100_control.models.registry import _matrix
-    from spatialmath import SE3
-    links = [rtb.RevoluteDH(a=j['a'], alpha=j['alpha'], d=j['d'], offset=j['theta'],
-                            qlim=[lo, hi])
-             for j, lo, hi in zip(table['joints'], model.lower, model.upper)]
-    robot = rtb.DHRobot(links, tool=SE3(_matrix(table.get('tool')), check=False),
-                        name=model.name)
-    # DHRobot.ik_LM drops the tool transform (every solve fails); its ETS keeps it
-    ets = robot.ets()
+    if table is not None:
+        from px100_control.models.registry import _matrix
+        from spatialmath import SE3
+        links = [rtb.RevoluteDH(a=j['a'], alpha=j['alpha'], d=j['d'], offset=j['theta'],
+                                qlim=[lo, hi])
+                 for j, lo, hi in zip(table['joints'], model.lower, model.upper)]
+        robot = rtb.DHRobot(links, tool=SE3(_matrix(table.get('tool')), check=False),
+                            name=model.name)
+        # DHRobot.ik_LM drops the tool transform (every solve fails); its ETS keeps it
+        ets = robot.ets()
+        source = f'DH model from {model.name}.yaml'
+    else:
+        ets = _ets_from_poe(model)
+        source = f'ETS built from the PoE model of {model.name}.yaml'
+        if ets is None:
+            return [{'name': 'roboticstoolbox ik_LM',
+                     'skipped': 'no DH table and no axis-aligned PoE for this robot'}]
+    rng = np.random.default_rng(1)
+    for q in model.random_configurations(20, rng):        # the peer's model must be ours
+        if np.abs(ets.fkine(q).A - model.fk(q)).max() > 1e-9:
+            return [{'name': 'roboticstoolbox ik_LM', 'skipped': 'ETS does not match the FK'}]
     q0 = np.zeros(model.dof)
 
     def solve(T):
@@ -303,8 +353,7 @@ def _rtb_rows(model, targets):
                         method='chan', k=1.0)
         return sol.q if sol.success else None
     return [_measure("roboticstoolbox ETS.ik_LM (C++, method='chan', tuned)", model, targets,
-                     solve, note='DH model from px100.yaml; ilimit 30, slimit 100, tol 1e-10, '
-                                 'joint limits')]
+                     solve, note=f'{source}; ilimit 30, slimit 100, tol 1e-10, joint limits')]
 
 
 def _pin_rows(model, targets):
@@ -398,6 +447,36 @@ def _markdown(rows, ref_name):
     return '\n'.join(lines)
 
 
+#: issue 8's goals for the fastest single solve against tuned ik_LM: (speed-up, success)
+GOALS = {'px100': (5.0, 1.0), 'myarm300pi': (2.0, 0.999)}
+
+
+def _verdicts(robot, rows):
+    """Return sentences comparing our fastest single solve with tuned ik_LM (and the goal)."""
+    ours = [r for r in rows if 'closed form' in r.get('name', '') and r.get('success')]
+    peer = next((r for r in rows if r.get('name', '').startswith('roboticstoolbox')
+                 and 'skipped' not in r), None)
+    if not ours or peer is None:
+        return []
+    best = min(ours, key=lambda r: r['median_us'])
+    speedup = peer['median_us'] / best['median_us']
+    text = (f"{best['name']}: {speedup:.1f}x the speed of tuned ik_LM (median "
+            f"{best['median_us']:.1f} vs {peer['median_us']:.1f} us; success "
+            f"{100 * best['success']:.1f} % vs {100 * peer['success']:.1f} %)")
+    if robot in GOALS:
+        want, succ = GOALS[robot]
+        met = speedup >= want and best['success'] >= succ
+        text += (f'; goal >= {want:g}x at >= {100 * succ:g} % success: '
+                 + ('met' if met else 'NOT met: behind the goal'))
+    faster = [r['name'] for r in rows if 'skipped' not in r and r.get('success') is not None
+              and not r['name'].startswith('px100_control')
+              and r['median_us'] < best['median_us']]
+    out = [text]
+    if faster:
+        out.append('Faster than our fastest single solve: ' + ', '.join(faster))
+    return out
+
+
 def run(quick: bool = False, robot: str = 'px100', targets: int = 0) -> dict:
     """Run the benchmark; return the figures (rows, batch, machine) and a Markdown table."""
     model = load_robot(robot)
@@ -415,13 +494,15 @@ def run(quick: bool = False, robot: str = 'px100', targets: int = 0) -> dict:
                              for m in missing)
     rows += peer_rows
     ref = "px100_control solve_ik(mode='full') auto"
-    return {'robot': robot, 'targets': n, 'quick': quick,
+    verdicts = _verdicts(robot, rows)
+    return {'robot': robot, 'targets': n, 'quick': quick, 'verdicts': verdicts,
             'success_criterion': f'position < {POS_TOL} m, orientation < {ORI_TOL} rad, '
                                  'within joint limits',
             'machine': f'{platform.processor() or platform.machine()}, {os.cpu_count()} cores, '
                        f'Python {platform.python_version()}',
             'load_average_1min_at_end': os.getloadavg()[0],
-            'rows': rows, 'batch': batch, 'markdown': _markdown(rows, ref),
+            'rows': rows, 'batch': batch,
+            'markdown': _markdown(rows, ref) + ''.join(f'\n\n{v}' for v in verdicts),
             'ratio_reference': ref}
 
 

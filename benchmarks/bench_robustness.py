@@ -170,13 +170,14 @@ def run(quick: bool = False, only=None, count=None, log=print, output=None,
         probe.wait_ready(NODES, timeout=60.0)
 
         def progress(part, key):
-            result[key] = part
+            # a partial fuzz run (--target) adds to the earlier run's targets
+            result[key] = {**(base or {}).get(key, {}), **part} if key == 'fuzz' else part
             if output:
                 write(result, output)
 
         if 'fuzz' in only:
-            result['fuzz'] = _fuzz(graph, probe, lim, model, count_for, log,
-                                   lambda part: progress(part, 'fuzz'), targets)
+            progress(_fuzz(graph, probe, lim, model, count_for, log,
+                           lambda part: progress(part, 'fuzz'), targets), 'fuzz')
         if 'faults' in only:
             progress(_faults(graph, probe, lim, model, log), 'faults')
         if 'load' in only:

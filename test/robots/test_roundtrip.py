@@ -100,6 +100,50 @@ def test_myarm_swivel_search_reaches_targets():
     assert _myarm_search_roundtrip(300, seed=301) >= 0.995
 
 
+def test_myarm_branch_sign_flips_match_the_closed_form():
+    """The 7 other branches of a swivel follow from branch 0 by the documented sign flips."""
+    m = load_robot('myarm300pi')
+    g = myarm300pi.geometry(m)
+    rng = np.random.default_rng(302)
+    Q = m.random_configurations(200, rng)
+    for T, psi in zip(fk_batch(chain(m), Q), rng.uniform(-np.pi, np.pi, 200)):
+        S = myarm300pi.solve_swivel(m, T, [psi])[0]            # (8, 7), branch k: bits q2 q4 q6
+        if not np.all(np.isfinite(S)):
+            continue
+        base = S[0] * g.signs                                  # geometric angles of branch 0
+        for k in range(8):
+            t = myarm300pi._branch_angles(base, (k >> 2) & 1, (k >> 1) & 1, k & 1)
+            assert _wrapped(np.array(t) * g.signs - S[k]).max() < 1e-9, (k, psi)
+
+
+def test_myarm_fast_path_round_trip_and_seed_continuity():
+    """
+    ik_fast: in-limit exact solutions for 1,000 FK targets; FK(seed) gives back the seed.
+
+    Unreachable wrist points get None.
+    """
+    m = load_robot('myarm300pi')
+    Q = m.random_configurations(1000, np.random.default_rng(303))
+    T_all = fk_batch(chain(m), Q)
+    found = 0
+    for q_gen, T in zip(Q, T_all):
+        q, tried = myarm300pi.ik_fast(m, T)
+        assert tried >= 1
+        if q is None:
+            continue
+        found += 1
+        q = np.array(q)
+        assert _pose_errors(m, q[None], T[None]).max() <= POSE_TOL
+        assert np.all((q >= m.lower - 1e-9) & (q <= m.upper + 1e-9))
+    assert found >= 999
+    for q_gen, T in zip(Q[:200], T_all[:200]):
+        q, tried = myarm300pi.ik_fast(m, T, q_seed=q_gen)
+        assert tried == 1 and np.abs(np.array(q) - q_gen).max() < 1e-7
+    far = np.eye(4)
+    far[:3, 3] = [0.0, 0.0, 2.0]
+    assert myarm300pi.ik_fast(m, far) == (None, 0)
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(os.environ.get('PX100_STRESS', '').lower() != 'full',
                     reason='about 1 min; runs with PX100_STRESS=full')

@@ -305,6 +305,181 @@ def candidates(model, T_target: np.ndarray, mode: str, q_seed=None) -> np.ndarra
     return np.concatenate(out, axis=0)
 
 
+# ---------------------------------------------------------------------------------------------
+# scalar fast path: the first in-limit swivel nearest the seed's (plain floats)
+# ---------------------------------------------------------------------------------------------
+
+_FAST_STEP = 2.0 * math.pi / _GRID      # swivel step of the scalar search [rad]
+
+
+def _branch_angles(t, a: int, b: int, c: int):
+    """
+    Return the geometric angles of branch (q2, q4, q6 sign flips a, b, c) from branch 0's.
+
+    Flipping q2 maps (t1, t2, t3) to (t1 + pi, -t2, t3 + pi) (ZYZ ambiguity, same elbow);
+    flipping q4 maps (t3, t4, t5) to (t3 + pi, -t4, t5 - pi); flipping q6 maps (t5, t6, t7)
+    to (t5 + pi, -t6, t7 + pi). Not wrapped.
+    """
+    pi = math.pi
+    t1, t2, t3, t4, t5, t6, t7 = t
+    return (t1 + a * pi, -t2 if a else t2, t3 + (a + b) * pi, -t4 if b else t4,
+            t5 + (c - b) * pi, -t6 if c else t6, t7 + c * pi)
+
+
+def _scalar_solver(g: SrsGeometry):
+    """
+    Return solve(R rows, p, q_seed) -> (q tuple or None, swivels tried).
+
+    Swivel angles are tried outward from the seed's (steps of ``_FAST_STEP``, one full turn);
+    at each, branch 0 is solved in closed form and the other 7 follow by sign flips; the joint
+    groups (1, 2), (3, 4), (5, 6, 7) depend on the flips (a), (a, b), (b, c) only, so the
+    in-limit branches are enumerated group by group and the one nearest the seed is returned.
+    Degenerate swivels (shoulder, elbow or wrist singular) are skipped.
+    """
+    d1, d3, d5, d7 = g.d1, g.d3, g.d5, g.d7
+    sg = [float(v) for v in g.signs]
+    lo = [float(v) for v in g.lower]
+    hi = [float(v) for v in g.upper]
+    pi, two_pi = math.pi, 2.0 * math.pi
+    sqrt, atan2, hypot, cos, sin = math.sqrt, math.atan2, math.hypot, math.cos, math.sin
+    reach_hi, reach_lo = d3 + d5 + 1e-12, abs(d3 - d5) - 1e-12
+
+    def joint(j, t):
+        v = sg[j] * t
+        if not -pi <= v < pi:
+            v = (v + pi) % two_pi - pi
+        return v if lo[j] - 1e-9 <= v <= hi[j] + 1e-9 else None
+
+    def solve(R, p, seed):
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
+        sx, sy, sz = p[0] - d7 * r02, p[1] - d7 * r12, p[2] - d7 * r22 - d1     # W - S
+        L = sqrt(sx * sx + sy * sy + sz * sz)
+        if not (reach_lo < L < reach_hi) or L < _TINY:
+            return None, 0
+        w0, w1, w2 = sx / L, sy / L, sz / L
+        if abs(w2) < 0.99:          # n: world z (world x when S-W is vertical) made normal to w
+            k = w2
+            n0, n1, n2 = -k * w0, -k * w1, 1.0 - k * w2
+        else:
+            k = w0
+            n0, n1, n2 = 1.0 - k * w0, -k * w1, -k * w2
+        nn = sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        n0, n1, n2 = n0 / nn, n1 / nn, n2 / nn
+        m0, m1, m2 = w1 * n2 - w2 * n1, w2 * n0 - w0 * n2, w0 * n1 - w1 * n0
+        ca = (d3 * d3 + L * L - d5 * d5) / (2.0 * d3 * L)
+        ca = 1.0 if ca > 1.0 else -1.0 if ca < -1.0 else ca
+        sa = sqrt(1.0 - ca * ca)
+        # the seed's swivel: its upper arm direction Rz(t1) Ry(t2) z about the S-W line
+        g1, g2 = sg[0] * seed[0], sg[1] * seed[1]
+        us0, us1, us2 = cos(g1) * sin(g2), sin(g1) * sin(g2), cos(g2)
+        uw = us0 * w0 + us1 * w1 + us2 * w2
+        v0, v1, v2 = us0 - uw * w0, us1 - uw * w1, us2 - uw * w2
+        psi0 = atan2(v0 * m0 + v1 * m1 + v2 * m2, v0 * n0 + v1 * n1 + v2 * n2)
+        tried = 0
+        for k in range(_GRID):
+            step = (k + 1) // 2 * _FAST_STEP
+            psi = psi0 + (step if k % 2 else -step)
+            tried += 1
+            cp, sp = cos(psi), sin(psi)
+            u0 = ca * w0 + sa * (cp * n0 + sp * m0)
+            u1 = ca * w1 + sa * (cp * n1 + sp * m1)
+            u2 = ca * w2 + sa * (cp * n2 + sp * m2)
+            f0, f1, f2 = (sx - d3 * u0) / d5, (sy - d3 * u1) / d5, (sz - d3 * u2) / d5
+            rxy = hypot(u0, u1)
+            if rxy < 1e-9:
+                continue
+            c1, s1 = u0 / rxy, u1 / rxy
+            c2 = -1.0 if u2 < -1.0 else 1.0 if u2 > 1.0 else u2
+            s2 = rxy
+            gx = c1 * c2 * f0 + s1 * c2 * f1 - s2 * f2
+            gy = -s1 * f0 + c1 * f1
+            gz = c1 * s2 * f0 + s1 * s2 * f1 + c2 * f2
+            hxy = hypot(gx, gy)
+            if hxy < 1e-9:
+                continue
+            s3, c3 = gx / hxy, -gy / hxy
+            c4 = -1.0 if gz < -1.0 else 1.0 if gz > 1.0 else gz
+            s4 = hxy
+            # C = Rz(t1) Ry(t2) Rz(t3) Rx(t4); the wrist solves C^T R = Rz(t5) Rx(t6) Rz(t7)
+            a00, a10, a20 = c1 * c2, s1 * c2, -s2
+            a02, a12, a22 = c1 * s2, s1 * s2, c2
+            b01, b02, b11, b12 = -s3 * c4, s3 * s4, c3 * c4, -c3 * s4
+            C00, C10, C20 = a00 * c3 - s1 * s3, a10 * c3 + c1 * s3, a20 * c3
+            C01 = a00 * b01 - s1 * b11 + a02 * s4
+            C11 = a10 * b01 + c1 * b11 + a12 * s4
+            C21 = a20 * b01 + a22 * s4
+            C02 = a00 * b02 - s1 * b12 + a02 * c4
+            C12 = a10 * b02 + c1 * b12 + a12 * c4
+            C22 = a20 * b02 + a22 * c4
+            x02 = C00 * r02 + C10 * r12 + C20 * r22
+            x12 = C01 * r02 + C11 * r12 + C21 * r22
+            x22 = C02 * r02 + C12 * r12 + C22 * r22
+            x20 = C02 * r00 + C12 * r10 + C22 * r20
+            x21 = C02 * r01 + C12 * r11 + C22 * r21
+            sb = hypot(x02, x12)
+            if sb < 1e-9:
+                continue
+            t1, t2, t3, t4 = atan2(s1, c1), atan2(s2, c2), atan2(s3, c3), atan2(s4, c4)
+            t5, t6, t7 = atan2(x02, -x12), atan2(sb, x22), atan2(x20, x21)
+            # joint values of the flips (see _branch_angles): group (1, 2) by a, 3 by the
+            # parity of a + b, 4 by b, 5 by the parity of c - b, 6 and 7 by c
+            A = []
+            for a in (0, 1):
+                q1 = joint(0, t1 + pi if a else t1)
+                q2 = joint(1, -t2 if a else t2) if q1 is not None else None
+                A.append(None if q2 is None else (q1, q2))
+            if A[0] is None and A[1] is None:
+                continue
+            J3 = (joint(2, t3), joint(2, t3 + pi))
+            J4 = (joint(3, t4), joint(3, -t4))
+            J5 = (joint(4, t5), joint(4, t5 + pi))
+            J67 = []
+            for c in (0, 1):
+                q6 = joint(5, -t6 if c else t6)
+                q7 = joint(6, t7 + pi if c else t7) if q6 is not None else None
+                J67.append(None if q7 is None else (q6, q7))
+            best, best_cost = None, math.inf
+            for a in (0, 1):
+                if A[a] is None:
+                    continue
+                for b in (0, 1):
+                    q3, q4 = J3[(a + b) & 1], J4[b]
+                    if q3 is None or q4 is None:
+                        continue
+                    for c in (0, 1):
+                        q5, q67 = J5[(c + b) & 1], J67[c]
+                        if q5 is None or q67 is None:
+                            continue
+                        q = A[a] + (q3, q4, q5) + q67
+                        cost = sum((x - y) ** 2 for x, y in zip(q, seed))
+                        if cost < best_cost:
+                            best, best_cost = q, cost
+            if best is not None:
+                return best, tried
+        return None, tried
+    return solve
+
+
+@functools.lru_cache(maxsize=16)
+def _model_solver(model):
+    return _scalar_solver(geometry(model))
+
+
+def ik_fast(model, T_target, q_seed=None):
+    """
+    Return (q (7-tuple) or None, swivels tried): an in-limit closed-form solution, fast.
+
+    The scalar path for one full-pose target (plain floats): the swivel angle nearest the
+    seed's (default model.home) whose best branch is in the limits, the branch nearest the
+    seed. None when no swivel on the grid has one (``solve_ik`` then searches finer and falls
+    back to iterative IK). Not verified here: callers check the pose by FK.
+    """
+    T = T_target.tolist() if hasattr(T_target, 'tolist') else T_target
+    seed = [float(x) for x in (model.home if q_seed is None else q_seed)]
+    return _model_solver(model)([T[0][:3], T[1][:3], T[2][:3]],
+                                (T[0][3], T[1][3], T[2][3]), seed)
+
+
 def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     """Explain in words why a target has no closed-form candidate ('' if unknown)."""
     g = geometry(model)
@@ -324,4 +499,4 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
 
 
 __all__ = ['candidates', 'unreachable_reason', 'geometry', 'solve_swivel', 'swivel_angle',
-           'search_swivel', 'SrsGeometry', 'complete']
+           'search_swivel', 'SrsGeometry', 'complete', 'ik_fast']
