@@ -375,6 +375,7 @@ def _scalar_solver(g: SrsGeometry):
         uw = us0 * w0 + us1 * w1 + us2 * w2
         v0, v1, v2 = us0 - uw * w0, us1 - uw * w1, us2 - uw * w2
         psi0 = atan2(v0 * m0 + v1 * m1 + v2 * m2, v0 * n0 + v1 * n1 + v2 * n2)
+        e0, e1, e2, e3, e4, e5, e6 = seed
         tried = 0
         for k in range(_GRID):
             step = (k + 1) // 2 * _FAST_STEP
@@ -423,11 +424,12 @@ def _scalar_solver(g: SrsGeometry):
             t5, t6, t7 = atan2(x02, -x12), atan2(sb, x22), atan2(x20, x21)
             # joint values of the flips (see _branch_angles): group (1, 2) by a, 3 by the
             # parity of a + b, 4 by b, 5 by the parity of c - b, 6 and 7 by c
+            # each group's values and its share of the distance to the seed
             A = []
             for a in (0, 1):
                 q1 = joint(0, t1 + pi if a else t1)
                 q2 = joint(1, -t2 if a else t2) if q1 is not None else None
-                A.append(None if q2 is None else (q1, q2))
+                A.append(None if q2 is None else (q1, q2, (q1 - e0) ** 2 + (q2 - e1) ** 2))
             if A[0] is None and A[1] is None:
                 continue
             J3 = (joint(2, t3), joint(2, t3 + pi))
@@ -437,23 +439,25 @@ def _scalar_solver(g: SrsGeometry):
             for c in (0, 1):
                 q6 = joint(5, -t6 if c else t6)
                 q7 = joint(6, t7 + pi if c else t7) if q6 is not None else None
-                J67.append(None if q7 is None else (q6, q7))
+                J67.append(None if q7 is None else (q6, q7, (q6 - e5) ** 2 + (q7 - e6) ** 2))
             best, best_cost = None, math.inf
             for a in (0, 1):
-                if A[a] is None:
+                qa = A[a]
+                if qa is None:
                     continue
                 for b in (0, 1):
                     q3, q4 = J3[(a + b) & 1], J4[b]
                     if q3 is None or q4 is None:
                         continue
+                    cost_ab = qa[2] + (q3 - e2) ** 2 + (q4 - e3) ** 2
                     for c in (0, 1):
                         q5, q67 = J5[(c + b) & 1], J67[c]
                         if q5 is None or q67 is None:
                             continue
-                        q = A[a] + (q3, q4, q5) + q67
-                        cost = sum((x - y) ** 2 for x, y in zip(q, seed))
+                        cost = cost_ab + (q5 - e4) ** 2 + q67[2]
                         if cost < best_cost:
-                            best, best_cost = q, cost
+                            best = (qa[0], qa[1], q3, q4, q5, q67[0], q67[1])
+                            best_cost = cost
             if best is not None:
                 return best, tried
         return None, tried
