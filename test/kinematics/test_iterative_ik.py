@@ -172,3 +172,22 @@ def test_solve_dls_direct_call_reports_iterations(px100):
     assert res.success and 1 <= res.iterations <= 8
     res = solve_newton(px100, task, q0 + 0.05)
     assert res.success and 1 <= res.iterations <= 8
+
+
+def test_unrolled_normal_solver_matches_the_looped_cholesky():
+    """The generated straight-line solve equals the generic Cholesky path (n <= m <= 6)."""
+    from px100_control.kinematics import iterative as it
+    rng = np.random.default_rng(17)
+    for n in range(1, 7):
+        for m in range(n, 7):
+            solve = it._unrolled_normal_solver(n, m)
+            for _ in range(50):
+                J = rng.normal(size=(m, n))
+                e = rng.normal(size=m).tolist()
+                lam2 = 10 ** rng.uniform(-6, 0)
+                cols = [tuple(J[:, j]) for j in range(n)]
+                ref = it._cholesky_apply(it._cholesky(it._gram(cols, lam2)),
+                                         [float(J[:, j] @ e) for j in range(n)])
+                np.testing.assert_allclose(solve(cols, e, lam2), ref, rtol=1e-9, atol=1e-12)
+                direct = np.linalg.solve(J.T @ J + lam2 * np.eye(n), J.T @ np.array(e))
+                np.testing.assert_allclose(ref, direct, rtol=1e-6, atol=1e-9)
