@@ -191,3 +191,17 @@ def test_unrolled_normal_solver_matches_the_looped_cholesky():
                 np.testing.assert_allclose(solve(cols, e, lam2), ref, rtol=1e-9, atol=1e-12)
                 direct = np.linalg.solve(J.T @ J + lam2 * np.eye(n), J.T @ np.array(e))
                 np.testing.assert_allclose(ref, direct, rtol=1e-6, atol=1e-9)
+
+
+def test_dls_solve_redundant_chain_matches_numpy():
+    """More joints than task rows (the 7-DOF myArm): J^T (J J^T + lam2 I)^-1 e, unrolled."""
+    from px100_control.kinematics import iterative as it
+    rng = np.random.default_rng(18)
+    for n, m in ((7, 6), (7, 3), (8, 6), (12, 6)):
+        for _ in range(50):
+            J = rng.normal(size=(m, n))
+            e = rng.normal(size=m)
+            lam2 = 10 ** rng.uniform(-6, 0)
+            got = it._dls_solve([tuple(J[:, j]) for j in range(n)], e.tolist(), lam2)
+            ref = J.T @ np.linalg.solve(J @ J.T + lam2 * np.eye(m), e)
+            np.testing.assert_allclose(got, ref, rtol=1e-6, atol=1e-9)

@@ -235,9 +235,6 @@ def _scalar_solver(g: Px100Geometry):
     atan2, sqrt, cos, sin = math.atan2, math.sqrt, math.cos, math.sin
     g12 = g1 - g2
 
-    def wrap(v):
-        return v if -pi <= v < pi else (v + pi) % two_pi - pi
-
     def branch(t, phi, u, P2, ca3, sa3, tol, out):
         # the planar shoulder/elbow/wrist chain of one waist branch (see _planar)
         wu = u - L4 * ca3 - u2
@@ -255,17 +252,22 @@ def _scalar_solver(g: Px100Geometry):
         bse = atan2(wv, wu) - g1
         k = atan2(L3 * s, Lr + L3 * c)
         el = atan2(s, c)
-        t = wrap(t)
+        if not -pi <= t < pi:
+            t = (t + pi) % two_pi - pi
         tl, th = lo0 - tol, hi0 + tol
         for p2, p3 in ((bse - k, el + g12), (bse + k, g12 - el)) if s > 0.0 else (
                 (bse - k, el + g12),):
-            q1 = wrap(p2)
+            q1 = p2 if -pi <= p2 < pi else (p2 + pi) % two_pi - pi
             if not lo1 - tol <= q1 <= hi1 + tol:
                 continue
-            q2 = wrap(s3 * p3)
+            q2 = s3 * p3
+            if not -pi <= q2 < pi:
+                q2 = (q2 + pi) % two_pi - pi
             if not lo2 - tol <= q2 <= hi2 + tol:
                 continue
-            q3 = wrap(s4 * (phi - p2 - p3))
+            q3 = s4 * (phi - p2 - p3)
+            if not -pi <= q3 < pi:
+                q3 = (q3 + pi) % two_pi - pi
             if not lo3 - tol <= q3 <= hi3 + tol:
                 continue
             if tl <= t <= th:
