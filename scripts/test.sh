@@ -14,4 +14,4 @@ cd "$ROOT"
 echo "[test] ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
 # Real DDS timing on a 2-core machine: a test that fails is retried up to twice (a real defect
 # fails all three runs; the retries are listed in the summary as "rerun").
-python -m pytest -q -p no:cacheprovider --reruns 2 --reruns-delay 1 "$@"
+python -m pytest -q -rR -p no:cacheprovider --reruns 2 --reruns-delay 1 "$@"
