@@ -24,7 +24,7 @@ def _pad(n: int, align: int) -> int:
 
 def cdr_string(text: str, offset: int) -> bytes:
     """Return the CDR bytes of a string written at payload offset ``offset`` (with padding)."""
-    data = text.encode('utf-8') + b'\x00'
+    data = text.encode('utf-8', 'replace') + b'\x00'   # a lone surrogate becomes '?'
     return b'\x00' * _pad(offset, 4) + _U32.pack(len(data)) + data
 
 

@@ -428,14 +428,20 @@ class IkServiceNode(Node):
         """Publish the solution and the status of one request (CDR bytes or reused messages)."""
         if self._raw_replies:
             hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
-            self._pub_solution.publish(self._solution_writer.write(
-                stamp.sec, stamp.nanosec, () if q is None else [float(x) for x in q]))
-            self._pub_status.publish(cdr.diagnostic_status(
-                level, self._diag_name, message, hardware_id, values))
-            if level != DiagnosticStatus.OK:
-                self.get_logger().warning(f'ik request {hardware_id}: {message}',
-                                          throttle_duration_sec=1.0)
-            return
+            try:
+                solution = self._solution_writer.write(
+                    stamp.sec, stamp.nanosec, () if q is None else [float(x) for x in q])
+                status = cdr.diagnostic_status(level, self._diag_name, message, hardware_id,
+                                               values)
+            except Exception as exc:  # noqa: B902 - the message path below still answers
+                self.get_logger().error(f'ik request {hardware_id}: CDR reply failed ({exc!r})')
+            else:
+                self._pub_solution.publish(solution)
+                self._pub_status.publish(status)
+                if level != DiagnosticStatus.OK:
+                    self.get_logger().warning(f'ik request {hardware_id}: {message}',
+                                              throttle_duration_sec=1.0)
+                return
         sol = self._solution
         sol.header.stamp = stamp
         sol.position = [] if q is None else [float(x) for x in q]

@@ -33,3 +33,9 @@ def test_diagnostic_status_round_trip_with_unicode_and_empty_values():
                                    values=[KeyValue(key=k, value=v) for k, v in values])
     empty = deserialize_message(cdr.diagnostic_status(0, '', '', '', []), DiagnosticStatus)
     assert empty == DiagnosticStatus()
+
+
+def test_lone_surrogates_are_replaced_not_raised():
+    raw = cdr.diagnostic_status(0, 'n', 'bad \udc80 text', '1.0', [('k', '\ud800')])
+    msg = deserialize_message(raw, DiagnosticStatus)
+    assert msg.message == 'bad ? text' and msg.values[0].value == '?'
