@@ -322,6 +322,8 @@ class Probe:
         self.status_msgs = 0
         self.status_seen_goals: Dict[str, int] = defaultdict(int)
         self.diagnostics: List[DiagnosticStatus] = []
+        #: diagnostics received per hardware_id (a goal or request id)
+        self.diag_seen: Dict[str, int] = defaultdict(int)
         self.last_joint_state: Optional[JointState] = None
         self._setpoint_log: Optional[list] = None
         #: valid probe goals ended and those the server aborted for tracking (see goal_works)
@@ -443,6 +445,8 @@ class Probe:
         with self.cond:
             self.diagnostics.extend(msg.status)
             del self.diagnostics[:-5000]
+            for st in msg.status:
+                self.diag_seen[st.hardware_id] += 1
             self.cond.notify_all()
 
     # waiting

@@ -92,13 +92,17 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
             bound)
 
     def send_goal(msg):
+        # answered: a status naming the goal id, or (a goal reusing the id of the running one,
+        # which keeps its status) a diagnostic naming it
         key = stamp_text(msg.header.stamp)
         with probe.cond:
             mark = probe.status_msgs
+            diags = probe.diag_seen[key]
         probe.pub_goal.publish(msg)
         sent_goals.append(msg.header.stamp)
         del sent_goals[:-50]
-        return probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark, 3.0)
+        return probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark
+                              or probe.diag_seen[key] > diags, 3.0)
 
     def send_cancel(req):
         return probe.call(probe.cli_cancel, req, 3.0) is not None
