@@ -419,3 +419,22 @@ def test_scalar_pitch_request_equals_solve_ik(name):
         assert abs(yaw - ref.details['unreachable_yaw']) < 1e-12
         assert flipped == bool(ref.details.get('roll_flipped'))
     assert declined < 250          # only the perturbed targets that became unreachable
+
+
+def test_fast_paths_decline_non_finite_and_unreachable_input():
+    """NaN/inf targets and out-of-reach ones: the fast paths return None (no exception)."""
+    from px100_control.kinematics.analytic import myarm300pi
+    from px100_control.kinematics.solve import solve_pitch_scalar
+    model = load_robot('px100')
+    eye = np.eye(3).tolist()
+    nan_rot = [[math.nan] * 3] * 3
+    for x, y, z, R in ((math.nan, 0.1, 0.1, eye), (0.1, math.inf, 0.1, eye),
+                       (0.1, 0.0, 0.1, nan_rot), (5.0, 0.0, 0.0, eye)):
+        assert solve_pitch_scalar(model, x, y, z, R, list(model.home)) is None
+    assert ana.ik_xyz_pitch(model, math.nan, 0.0, 0.1, 0.0) == []
+    assert ana.ik_xyz_pitch(model, 5.0, 0.0, 0.1, 0.0) == []
+    arm = load_robot('myarm300pi')
+    for bad in (math.nan, math.inf):
+        T = np.eye(4)
+        T[0, 3] = bad
+        assert myarm300pi.ik_fast(arm, T) == (None, 0)
