@@ -32,13 +32,22 @@ def matrix_to_euler_sxyz(R: np.ndarray):
     return float(roll), float(pitch), float(yaw)
 
 
+def quaternion_to_rows(x: float, y: float, z: float, w: float, norm2: float = 1.0):
+    """
+    Return the rotation of quaternion (x, y, z, w) as 3 rows of 3 plain floats.
+
+    norm2: the quaternion's squared norm (the result is then the rotation of the normalised
+    quaternion, without a square root); 1 for a unit quaternion.
+    """
+    k = 2.0 / norm2
+    return [[1.0 - k * (y * y + z * z), k * (x * y - z * w), k * (x * z + y * w)],
+            [k * (x * y + z * w), 1.0 - k * (x * x + z * z), k * (y * z - x * w)],
+            [k * (x * z - y * w), k * (y * z + x * w), 1.0 - k * (x * x + y * y)]]
+
+
 def quaternion_to_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
     """Return the (3, 3) rotation of a unit quaternion (x, y, z, w)."""
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(quaternion_to_rows(x, y, z, w))
 
 
 def matrix_to_quaternion(R: np.ndarray):

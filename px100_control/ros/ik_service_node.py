@@ -49,6 +49,7 @@ from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
+from px100_control.kinematics.rotations import quaternion_to_rows
 from px100_control.kinematics.solve import make_task as ik_make_task
 from px100_control.kinematics.solve import (METHODS, scalar_pitch_solver, solve_ik, solve_path,
                                             solve_pitch_scalar)
@@ -292,10 +293,7 @@ class IkServiceNode(Node):
         # NaN/inf, an all-zero (position-only) or badly scaled quaternion: the general path
         if not (0.998 <= n2 <= 1.002 and math.isfinite(x + y + z)):
             return False
-        k = 2.0 / n2
-        R = [[1.0 - k * (qy * qy + qz * qz), k * (qx * qy - qz * qw), k * (qx * qz + qy * qw)],
-             [k * (qx * qy + qz * qw), 1.0 - k * (qx * qx + qz * qz), k * (qy * qz - qx * qw)],
-             [k * (qx * qz - qy * qw), k * (qy * qz + qx * qw), 1.0 - k * (qx * qx + qy * qy)]]
+        R = quaternion_to_rows(qx, qy, qz, qw, n2)
         try:
             out = solve_pitch_scalar(self.model, x, y, z, R, seed_list,
                                      self._kwargs['tol_position'],

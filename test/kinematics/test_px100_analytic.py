@@ -438,3 +438,16 @@ def test_fast_paths_decline_non_finite_and_unreachable_input():
         T = np.eye(4)
         T[0, 3] = bad
         assert myarm300pi.ik_fast(arm, T) == (None, 0)
+
+
+def test_quaternion_rows_normalise_a_scaled_quaternion():
+    """quaternion_to_rows with the squared norm equals the matrix of the unit quaternion."""
+    from px100_control.kinematics.rotations import quaternion_to_matrix, quaternion_to_rows
+    q = np.random.default_rng(3).normal(size=4)
+    n2 = float(q @ q)
+    unit = q / math.sqrt(n2)
+    np.testing.assert_allclose(quaternion_to_rows(*q, n2), quaternion_to_matrix(*unit),
+                               atol=1e-15)
+    R = np.array(quaternion_to_rows(*unit))
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
+    assert abs(np.linalg.det(R) - 1.0) < 1e-12
