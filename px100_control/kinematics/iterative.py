@@ -414,11 +414,6 @@ def _cholesky_apply(L, b) -> Vec:
     return x
 
 
-def _cholesky_solve(A, b) -> Vec:
-    """Solve A x = b for a symmetric positive-definite A (nested lists)."""
-    return _cholesky_apply(_cholesky(A), b)
-
-
 def _gram(vectors, lam2: float) -> list:
     """Return the Gram matrix [v_i . v_j] + lam2 I of a list of equal-length vectors."""
     n = len(vectors)
