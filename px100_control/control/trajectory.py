@@ -543,6 +543,49 @@ def plan_stop(q, qd, max_deceleration: float, min_duration: float = 0.0) -> Traj
 # Validation: each returns '' when fine, else the reason in words
 # ---------------------------------------------------------------------------------------------
 
+def _first_few(items: list, limit: int = 8) -> list:
+    """Return items, or its first ``limit`` and a count (a reason must stay readable)."""
+    return items if len(items) <= limit else items[:limit] + [f'... ({len(items)} in all)']
+
+
+def _names_reason(known_joints: Sequence[str], names: list) -> str:
+    """Return why a goal's joint names are invalid (none, duplicates, unknown), or ''."""
+    if not names:
+        return 'goal has no joint names'
+    if len(set(names)) != len(names):
+        seen, dup = set(), set()
+        for x in names:  # linear: names.count() per name stalled the node on huge input
+            (dup if x in seen else seen).add(x)
+        return f'duplicate joint names: {_first_few(sorted(dup))}'
+    unknown = [x for x in names if x not in known_joints]
+    if unknown:
+        return f"unknown joint(s) {_first_few(unknown)} (known: {', '.join(known_joints)})"
+    return ''
+
+
+def validate_shape(known_joints: Sequence[str], joint_names: Sequence[str], lengths) -> str:
+    """
+    Return why a goal is invalid from its names and array lengths alone, or ''.
+
+    Values, times and limits are not checked (:func:`validate_points` checks everything and
+    refuses every goal this refuses): this is what can be read before deserializing a goal.
+
+    :param lengths: per point, the counts (positions, velocities, accelerations[, effort])
+    """
+    names = list(joint_names)
+    reason = _names_reason(known_joints, names)
+    if reason:
+        return reason
+    n = len(names)
+    for k, sizes in enumerate(lengths):
+        if sizes[0] != n:
+            return f'point {k}: {sizes[0]} positions for {n} joints'
+        for label, size in zip(('velocities', 'accelerations'), sizes[1:3]):
+            if size not in (0, n):
+                return f'point {k}: {size} {label} for {n} joints'
+    return ''
+
+
 def validate_points(known_joints: Sequence[str], joint_names: Sequence[str], times,
                     positions, velocities=None, accelerations=None, lower=None, upper=None,
                     velocity_limits=None) -> str:
@@ -557,17 +600,9 @@ def validate_points(known_joints: Sequence[str], joint_names: Sequence[str], tim
         sequences, each empty or of len(joint_names), or None
     """
     names = list(joint_names)
-    if not names:
-        return 'goal has no joint names'
-    if len(set(names)) != len(names):
-        seen, dup = set(), set()
-        for x in names:  # linear: names.count() per name stalled the node on huge input
-            (dup if x in seen else seen).add(x)
-        dup = sorted(dup)
-        return f'duplicate joint names: {dup}'
-    unknown = [x for x in names if x not in known_joints]
-    if unknown:
-        return f"unknown joint(s) {unknown} (known: {', '.join(known_joints)})"
+    reason = _names_reason(known_joints, names)
+    if reason:
+        return reason
     times = [float(x) for x in times]
     if not times:
         return 'goal has no points'
@@ -582,7 +617,7 @@ def validate_points(known_joints: Sequence[str], joint_names: Sequence[str], tim
         if k and tk <= times[k - 1]:
             return (f'point {k}: time_from_start {tk:g} s is not after point {k - 1} '
                     f'({times[k - 1]:g} s): times must be strictly increasing')
-        row = list(positions[k])
+        row = positions[k]   # lengths are checked before any value is read: huge rows are cheap
         if len(row) != len(names):
             return f'point {k}: {len(row)} positions for {len(names)} joints'
         for label, rows in (('velocities', velocities), ('accelerations', accelerations)):

@@ -1,5 +1,5 @@
 """
-Serialized replies without building messages: little-endian CDR (XCDR1) of the two reply types.
+Serialized messages without building them: little-endian CDR (XCDR1) writers and a goal reader.
 
 The IK service answers thousands of requests per second; building a ``sensor_msgs/JointState``
 and a ``diagnostic_msgs/DiagnosticStatus`` and letting rclpy convert and serialize them costs
@@ -7,6 +7,9 @@ about 45 us per request, writing the bytes here about 5 us (``Publisher.publish`
 serialized bytes). Layout: a 4-byte encapsulation header (CDR_LE), then the fields, each
 aligned to its size counted from the end of that header; strings are a uint32 length (with the
 NUL) and the bytes; sequences a uint32 count and the elements.
+
+``trajectory_shape`` reads a serialized JointTrajectory's stamp, joint names and array lengths
+without its values, so the trajectory_server refuses a malformed goal before deserializing it.
 
 ``matches_rclpy`` checks the bytes against rclpy's own serializer for the running middleware:
 callers use the fast path only when it agrees byte for byte.
@@ -116,5 +119,91 @@ def matches_rclpy() -> bool:
                                values=[KeyValue(key=k, value=v) for k, v in values])
         raw = diagnostic_status(level, msg.name, message, msg.hardware_id, values)
         if deserialize_message(raw, DiagnosticStatus) != msg:
+            return False
+    return True
+
+
+_I32_U32 = struct.Struct('<iI')
+
+
+def _read_string(data, off: int) -> Tuple[str, int]:
+    """Return (text up to the first NUL, offset after it) of a CDR string at payload ``off``."""
+    off += _pad(off, 4)
+    (size,) = _U32.unpack_from(data, 4 + off)
+    end = off + 4 + size
+    if size == 0 or 4 + end > len(data):
+        raise ValueError(f'string of {size} bytes at offset {off} runs past the message')
+    raw = bytes(data[4 + off + 4:4 + end - 1]).split(b'\x00', 1)[0]
+    return raw.decode('utf-8', 'replace'), end
+
+
+def trajectory_shape(data) -> Tuple[Tuple[int, int], list, list]:
+    """
+    Read a serialized trajectory_msgs/JointTrajectory without reading its values.
+
+    Returns ((stamp sec, nanosec), joint_names, lengths) where lengths has one
+    (positions, velocities, accelerations, effort) count tuple per point: enough to refuse a
+    goal with wrong names or wrongly sized arrays before paying for its deserialization.
+
+    :raises ValueError: not little-endian CDR, or the bytes end before the fields do
+    """
+    if bytes(data[:2]) != ENCAPSULATION[:2]:
+        raise ValueError('not little-endian CDR')
+    try:
+        stamp = _I32_U32.unpack_from(data, 4)
+        _, off = _read_string(data, 8)                        # header.frame_id
+        off += _pad(off, 4)
+        (count,) = _U32.unpack_from(data, 4 + off)
+        off += 4
+        if count > len(data):                                 # each name takes >= 5 bytes
+            raise ValueError(f'{count} joint names in {len(data)} bytes')
+        names = []
+        for _ in range(count):
+            name, off = _read_string(data, off)
+            names.append(name)
+        off += _pad(off, 4)
+        (count,) = _U32.unpack_from(data, 4 + off)
+        off += 4
+        if count > len(data):
+            raise ValueError(f'{count} points in {len(data)} bytes')
+        lengths = []
+        for _ in range(count):
+            sizes = []
+            for _field in range(4):   # positions, velocities, accelerations, effort: float64[]
+                off += _pad(off, 4)
+                (n,) = _U32.unpack_from(data, 4 + off)
+                off += 4
+                if n:
+                    off += _pad(off, 8) + 8 * n
+                sizes.append(n)
+            off += _pad(off, 4) + 8                           # time_from_start
+            lengths.append(tuple(sizes))
+    except struct.error as exc:
+        raise ValueError(f'message ends early: {exc}') from None
+    if 4 + off > len(data):
+        raise ValueError(f'message of {len(data)} bytes ends before its last point')
+    return stamp, names, lengths
+
+
+def trajectory_shape_matches_rclpy() -> bool:
+    """Return True when :func:`trajectory_shape` reads rclpy's serialization of samples right."""
+    from rclpy.serialization import serialize_message
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    for frame, names, counts in (('', [], []), ('px100/base_link', ['waist', 'elbow'],
+                                                [(2, 2, 0, 0), (2, 0, 2, 1), (0, 0, 0, 3)]),
+                                 ('x', ['a', 'odd_len', ''], [(3, 0, 0, 0)] * 3)):
+        msg = JointTrajectory(joint_names=names)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = -7, 123
+        msg.header.frame_id = frame
+        for k, (p, v, a, e) in enumerate(counts):
+            msg.points.append(JointTrajectoryPoint(
+                positions=[0.5] * p, velocities=[1.0] * v, accelerations=[2.0] * a,
+                effort=[3.0] * e))
+            msg.points[-1].time_from_start.sec = k
+        try:
+            got = trajectory_shape(serialize_message(msg))
+        except ValueError:
+            return False
+        if got != ((-7, 123), names, counts):
             return False
     return True

@@ -57,6 +57,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import numpy as np
 from px100_control.control import trajectory as tj
 from px100_control.errors import InvalidInputError
+from px100_control.ros import cdr
 from px100_control.ros.common import declare_robot_parameters, robot_name, robot_topic, spin_node
 from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
 from rcl_interfaces.msg import SetParametersResult
@@ -64,6 +65,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
@@ -156,8 +158,12 @@ class TrajectoryServerNode(Node):
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_subscription(JointState, robot_topic(self, 'joint_states'),
                                  self._on_joint_states, qos_profile_sensor_data)
+        # goals arrive serialized: names and array lengths are checked on the bytes, so a goal
+        # with wrong names or huge arrays is refused without deserializing it (measured: 16-30
+        # ms in the server for 8-800 MB goals; converting them first took seconds)
+        self._pre_read = cdr.trajectory_shape_matches_rclpy()
         self.create_subscription(JointTrajectory, robot_topic(self, 'trajectory/goal'),
-                                 self._on_goal, QoSProfile(depth=10))
+                                 self._on_goal_serialized, QoSProfile(depth=10), raw=True)
         self.create_service(CancelGoal, robot_topic(self, 'trajectory/cancel'), self._on_cancel)
         self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
         self._watchdog = self.create_timer(0.02, self._on_watchdog, clock=self._steady)
@@ -214,13 +220,39 @@ class TrajectoryServerNode(Node):
             return math.inf
         return (self._steady.now().nanoseconds - self._meas_steady_ns) * 1e-9
 
-    def _on_goal(self, msg: JointTrajectory) -> None:
+    def _on_goal_serialized(self, data: bytes) -> None:
+        """Refuse a goal with wrong names or array lengths on its bytes; else deserialize it."""
+        if self._pre_read:
+            try:
+                (sec, nanosec), names, lengths = cdr.trajectory_shape(data)
+            except ValueError:
+                pass   # deserialize_message below says what is wrong
+            else:
+                reason = tj.validate_shape(self._names, names, lengths)
+                if reason:
+                    msg = JointTrajectory()
+                    msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+                    self._on_goal(msg, invalid=reason)
+                    return
+        try:
+            msg = deserialize_message(data, JointTrajectory)
+        except Exception as exc:  # noqa: B902 - bytes from a raw publisher may be anything
+            self.get_logger().error(f'goal of {len(data)} bytes ignored: not a '
+                                    f'JointTrajectory ({exc})')
+            return
+        self._on_goal(msg)
+
+    def _on_goal(self, msg: JointTrajectory, invalid: str = '') -> None:
+        """Start a goal (preempting the running one), or refuse it (``invalid``: why)."""
         key = stamp_key(msg.header.stamp)
         with self._lock:
             if self._active is not None and self._active.key == key:
                 self._diagnose(key, DiagnosticStatus.ERROR,
                                f'duplicate goal id {stamp_id(msg.header.stamp)} ignored: that '
                                'goal is still running', 'IGNORED')
+                return
+            if invalid:
+                self._reject(msg.header.stamp, invalid)
                 return
             try:
                 traj, info = self._plan(msg)
@@ -253,9 +285,11 @@ class TrajectoryServerNode(Node):
         names = list(msg.joint_names)
         pts = msg.points
         times = [seconds(p.time_from_start) for p in pts]
-        positions = [list(p.positions) for p in pts]
-        vels = [list(p.velocities) for p in pts]
-        accs = [list(p.accelerations) for p in pts]
+        # the message's arrays themselves (no copies): validate_points checks every length
+        # before reading values, so a goal with huge arrays is rejected without converting them
+        positions = [p.positions for p in pts]
+        vels = [p.velocities for p in pts]
+        accs = [p.accelerations for p in pts]
         m = self.model
         reason = tj.validate_points(self._names, names, times, positions, vels, accs,
                                     m.lower, m.upper, m.velocity_limits)

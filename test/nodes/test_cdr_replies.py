@@ -1,8 +1,11 @@
-"""The IK service's CDR reply writers read back, through rclpy, as the intended messages."""
+"""CDR: the IK service's reply writers and the trajectory_server's goal reader agree with rclpy."""
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from hypothesis import given, settings, strategies as st
 from px100_control.ros import cdr
-from rclpy.serialization import deserialize_message
+import pytest
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 
 def test_writers_match_the_middleware():
@@ -39,3 +42,43 @@ def test_lone_surrogates_are_replaced_not_raised():
     raw = cdr.diagnostic_status(0, 'n', 'bad \udc80 text', '1.0', [('k', '\ud800')])
     msg = deserialize_message(raw, DiagnosticStatus)
     assert msg.message == 'bad ? text' and msg.values[0].value == '?'
+
+
+def test_trajectory_shape_reader_matches_the_middleware():
+    assert cdr.trajectory_shape_matches_rclpy()
+
+
+_text = st.text(st.characters(codec='utf-8', exclude_characters='\x00'), max_size=12)
+_counts = st.tuples(*[st.integers(0, 5)] * 4)
+
+
+@settings(max_examples=300, deadline=None)
+@given(frame=_text, names=st.lists(_text, max_size=6), counts=st.lists(_counts, max_size=6),
+       sec=st.integers(-2 ** 31, 2 ** 31 - 1), nanosec=st.integers(0, 2 ** 32 - 1))
+def test_trajectory_shape_reads_what_rclpy_wrote(frame, names, counts, sec, nanosec):
+    """Stamp, names and per-point array lengths of any goal, read without deserializing it."""
+    msg = JointTrajectory(joint_names=names)
+    msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id = sec, nanosec, frame
+    for p, v, a, e in counts:
+        msg.points.append(JointTrajectoryPoint(positions=[0.5] * p, velocities=[-1.0] * v,
+                                               accelerations=[2.0] * a, effort=[3.0] * e))
+    data = serialize_message(msg)
+    assert cdr.trajectory_shape(data) == ((sec, nanosec), names, [tuple(c) for c in counts])
+
+
+def test_trajectory_shape_refuses_truncated_or_foreign_bytes():
+    """Bytes that end early or are not little-endian CDR raise ValueError (never IndexError)."""
+    msg = JointTrajectory(joint_names=['waist', 'elbow'])
+    msg.points = [JointTrajectoryPoint(positions=[0.1, 0.2], velocities=[0.0, 0.0])] * 3
+    data = serialize_message(msg)
+    for end in range(len(data) - 1):
+        if end >= 4:   # a cut inside the last point's padding may still parse to its end
+            try:
+                shape = cdr.trajectory_shape(data[:end])
+            except ValueError:
+                continue
+            assert shape == cdr.trajectory_shape(data), end
+    with pytest.raises(ValueError):
+        cdr.trajectory_shape(b'\x00\x00\x00\x00' + data[4:])    # big-endian CDR header
+    with pytest.raises(ValueError):
+        cdr.trajectory_shape(data[:4] + b'\x00' * 8 + b'\xff\xff\xff\x7f')   # 2 G names

@@ -252,6 +252,39 @@ def test_validation_accepts_a_good_goal():
                               [[], [], []], [[], [], []], LO, HI, VMAX) == ''
 
 
+class _LengthOnly:
+    """A huge array whose values must not be read (reading them is what stalled the node)."""
+
+    def __init__(self, n):
+        self.n = n
+
+    def __len__(self):
+        return self.n
+
+    def __iter__(self):
+        raise AssertionError('values of a wrongly sized array were read')
+
+    __getitem__ = __iter__
+
+
+@pytest.mark.parametrize('field', ['pos', 'vel', 'acc'])
+def test_validation_rejects_huge_rows_by_length_alone(field):
+    """A 10M-entry row is refused on its length, before any of its values is touched."""
+    rows = {'pos': [[0.0]] * 3, 'vel': [[]] * 3, 'acc': [[]] * 3}
+    rows[field] = rows[field][:2] + [_LengthOnly(10 ** 7)]
+    reason = tj.validate_points(NAMES, ['waist'], [0.5, 1.0, 1.5], rows['pos'], rows['vel'],
+                                rows['acc'], LO, HI, VMAX)
+    assert reason.startswith('point 2: 10000000 '), reason
+
+
+def test_validation_reasons_stay_short_for_huge_name_lists():
+    """7,000 unknown or duplicate names: a reason of a few hundred characters, with the count."""
+    many = [f'j{i}' for i in range(7000)]
+    for names, expected in ((many, 'unknown joint'), (many + many, 'duplicate')):
+        reason = tj.validate_points(NAMES, names, [1.0], [[0.0] * len(names)])
+        assert expected in reason and '(7000 in all)' in reason and len(reason) < 400, reason
+
+
 def test_bad_planner_input_raises():
     """Planners refuse malformed input with InvalidInputError (never a silent trajectory)."""
     with pytest.raises(InvalidInputError):

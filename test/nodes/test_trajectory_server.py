@@ -6,17 +6,19 @@ joint, add a measurement offset or go silent, so stalls are reproducible. Timing
 margins for a loaded 2-core machine but still fail on a wrong behaviour (a goal that never ends,
 an abort that never comes, a jump in the setpoints).
 """
+import array
 import time
 
 from action_msgs.srv import CancelGoal
 from nodes_fake_driver import ARM, FakeDriver
-from nodes_helpers import (LATCHED, start_node, STARTUP_TIMEOUT, TrajectoryClient, unique_stamp,
-                           wait_for)
+from nodes_helpers import (duration, LATCHED, start_node, STARTUP_TIMEOUT, TrajectoryClient,
+                           unique_stamp, wait_for)
 import numpy as np
 from px100_control.ros.conversions import stamp_uuid
 import pytest
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 pytestmark = pytest.mark.ros
 
@@ -240,6 +242,44 @@ def test_duplicate_id_of_the_running_goal_is_ignored(fresh):
     env.client.send(['waist'], [(1.0, [-0.3])], stamp=stamp)
     assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED'
     assert env.position()[0] == pytest.approx(0.3, abs=0.002)
+
+
+def test_goal_with_huge_arrays_is_refused_on_its_lengths(fresh):
+    """
+    A 40 MB goal of wrongly sized arrays is ABORTED with the reason, nothing sent.
+
+    The running goal's id re-sent that way is still ignored (the running goal succeeds).
+    """
+    env = fresh
+    velocities = array.array('d', [0.5]) * 500_000
+    point = JointTrajectoryPoint(positions=[0.1], velocities=velocities)
+    point.time_from_start = duration(1.0)
+    huge = JointTrajectory(joint_names=['waist'], points=[point] * 10)
+    huge.header.stamp = unique_stamp()
+    k0 = env.driver.count()
+    env.client.pub.publish(huge)
+    assert env.client.wait_terminal(huge.header.stamp, 10.0) == 'ABORTED'
+    diag = env.client.last_diagnostic(huge.header.stamp)
+    assert diag is not None and 'point 0: 500000 velocities for 1 joints' in diag.message
+    time.sleep(0.3)
+    assert env.driver.count() == k0
+    stamp = env.client.send(['waist'], [(1.0, [0.3])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    huge.header.stamp = stamp
+    env.client.pub.publish(huge)
+    assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED'
+    assert env.position()[0] == pytest.approx(0.3, abs=0.002)
+
+
+def test_bytes_that_are_no_goal_are_logged_and_the_server_goes_on(fresh):
+    """Garbage published on the goal topic as serialized bytes: logged, and goals still work."""
+    env = fresh
+    env.client.pub.publish(b'\x00\x01\x00\x00' + b'\xff' * 7)
+    env.client.pub.publish(b'\x00\x01\x00\x00' + b'\x00' * 8 + b'\xff\xff\xff\x7f')
+    assert wait_for(lambda: 'not a JointTrajectory' in env.server.output(), 10.0), \
+        env.server.output()[-2000:]
+    _, status = env.move([0.1, -0.1, 0.1, 0.0], 0.5)
+    assert status == 'SUCCEEDED'
 
 
 def test_waypoint_goal_passes_through_its_points(fresh):
