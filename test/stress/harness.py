@@ -17,10 +17,15 @@ Stress harness: the real px100 nodes as processes, a probe node that fuzzes and 
 Units: s, rad, m. Everything here talks to the nodes over DDS only (the public contract).
 """
 import array
+import bisect
 from collections import defaultdict, deque
 from dataclasses import dataclass, field
 import math
 import os
+import signal
+import subprocess
+import sys
+import tempfile
 import threading
 import time
 from typing import Callable, Dict, List, Optional
@@ -255,6 +260,14 @@ def check_joint_message(msg: JointState, lim: Limits, *, setpoint: bool,
     return problems
 
 
+def script_env() -> dict:
+    """Return this environment with the repository on PYTHONPATH (for helper scripts)."""
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = os.environ.copy()
+    env['PYTHONPATH'] = root + os.pathsep + env.get('PYTHONPATH', '')
+    return env
+
+
 class RateMeter:
     """Receive times [s, monotonic] of one topic; rates and gaps over a time window."""
 
@@ -281,6 +294,60 @@ class RateMeter:
         edges = [t0] + ts + [t1]
         gap = max(b - a for a, b in zip(edges, edges[1:]))
         return {'rate': len(ts) / max(t1 - t0, 1e-9), 'max_gap': gap, 'count': len(ts)}
+
+
+class WatchedRates(RateMeter):
+    """
+    Receive times of one topic recorded by ``rate_watcher.py`` (a separate, listen-only process).
+
+    Same interface as :class:`RateMeter`; the file of float64 times is read incrementally.
+    """
+
+    def __init__(self, path: str):
+        super().__init__()
+        self.path = path
+        self.times = array.array('d')
+        self._file = None
+        self._rest = b''
+
+    def _update(self) -> None:
+        if self._file is None:
+            if not os.path.exists(self.path):
+                return
+            self._file = open(self.path, 'rb')
+        data = self._rest + self._file.read()
+        whole = len(data) - len(data) % 8
+        self.times.frombytes(data[:whole])
+        self._rest = data[whole:]
+
+    def tick(self) -> None:
+        raise TypeError('the watcher process records these times')
+
+    def count(self) -> int:
+        """Return how many messages the watcher saw."""
+        with self.lock:
+            self._update()
+            return len(self.times)
+
+    def stats(self, t0: float, t1: float) -> dict:
+        """Return {'rate': Hz, 'max_gap': s, 'count': n} over [t0, t1]."""
+        with self.lock:
+            self._update()
+            lo = bisect.bisect_left(self.times, t0)
+            hi = bisect.bisect_right(self.times, t1)
+            ts = self.times[lo:hi]
+        if not ts:
+            return {'rate': 0.0, 'max_gap': t1 - t0, 'count': 0}
+        gap = max(ts[0] - t0, t1 - ts[-1])
+        for a, b in zip(ts, ts[1:]):
+            if b - a > gap:
+                gap = b - a
+        return {'rate': len(ts) / max(t1 - t0, 1e-9), 'max_gap': gap, 'count': len(ts)}
+
+    def close(self) -> None:
+        """Close the file."""
+        if self._file is not None:
+            self._file.close()
 
 
 # -- probe -----------------------------------------------------------------------------------
@@ -313,7 +380,17 @@ class Probe:
         self.violations: List[dict] = []
         self.setpoints_seen = 0
         self.joint_states_seen = 0
+        #: receive times per topic; joint_states and ee_pose as seen by the rate watcher
+        #: process (the probe's own view, 'probe/<topic>', includes its own stalls)
         self.rates = defaultdict(RateMeter)
+        self._watcher_dir = tempfile.mkdtemp(prefix='px100_rates_')
+        self._watcher = subprocess.Popen(
+            [sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                          'rate_watcher.py'), '--dir', self._watcher_dir,
+             '--robot-name', robot_name],
+            stdout=subprocess.PIPE, text=True, env=script_env())
+        for name in ('joint_states', 'ee_pose'):
+            self.rates[name] = WatchedRates(os.path.join(self._watcher_dir, f'{name}.f64'))
         self.ik_status: Dict[str, List[DiagnosticStatus]] = defaultdict(list)
         self.ik_solutions: Dict[str, List[JointState]] = defaultdict(list)
         self.path_solutions: Dict[str, List[JointTrajectory]] = defaultdict(list)
@@ -363,7 +440,17 @@ class Probe:
         return f'{self.ns}/{name}'
 
     def close(self) -> None:
-        """Stop the executor and shut the context down."""
+        """Stop the executor and the rate watcher; shut the context down."""
+        if self._watcher.poll() is None:
+            self._watcher.send_signal(signal.SIGINT)
+            try:
+                self._watcher.wait(timeout=10.0)
+            except subprocess.TimeoutExpired:
+                self._watcher.kill()
+                self._watcher.wait()
+        for meter in self.rates.values():
+            if isinstance(meter, WatchedRates):
+                meter.close()
         self._spinning.clear()
         self.thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
@@ -377,7 +464,7 @@ class Probe:
                                     'time': time.monotonic()})
 
     def _on_joint_states(self, msg: JointState) -> None:
-        self.rates['joint_states'].tick()
+        self.rates['probe/joint_states'].tick()
         problems = check_joint_message(msg, self.lim, setpoint=False)
         if problems:
             self._violation('joint_states', problems, msg)
@@ -407,7 +494,7 @@ class Probe:
             self._violation('trajectory/feedback', problems, msg)
 
     def _on_ee_pose(self, msg: PoseStamped) -> None:
-        self.rates['ee_pose'].tick()
+        self.rates['probe/ee_pose'].tick()
         p, o = msg.pose.position, msg.pose.orientation
         if not _finite([p.x, p.y, p.z, o.x, o.y, o.z, o.w]):
             self._violation('ee_pose', ['non-finite pose'], msg)
@@ -470,6 +557,7 @@ class Probe:
         deadline = time.monotonic() + timeout
         checks = {
             'sim_driver': lambda: (self.wait_joint_states(3, 0.2)
+                                   and self.rates['joint_states'].count() >= 3   # the watcher
                                    and self.cli_torque.service_is_ready()
                                    and self.cli_reset.service_is_ready()
                                    and self.pub_setpoints.get_subscription_count() > 0),

@@ -16,18 +16,10 @@ from typing import Dict, List, Optional
 
 from action_msgs.msg import GoalStatus
 
-from .harness import Graph, Probe, stamp_text
+from .harness import Graph, Probe, script_env, stamp_text
 from .targets import goal_works, ik_works, level_of, SLEEP
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-
-
-def script_env() -> dict:
-    """Return the environment for helper scripts: this one, with the repo on PYTHONPATH."""
-    env = os.environ.copy()
-    env['PYTHONPATH'] = ROOT + os.pathsep + env.get('PYTHONPATH', '')
-    return env
 
 
 def run_script(name: str, *args: str) -> subprocess.Popen:

@@ -24,7 +24,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 INT32_MIN, INT32_MAX = -2 ** 31, 2 ** 31 - 1
 UINT32_MAX = 2 ** 32 - 1
-#: size of a "huge" array (kept below what would make one DDS sample take seconds)
+#: size of a "huge" array; a huge goal repeats a point (itself possibly with huge arrays) as
+#: many times, so one goal sample can reach 800 MB
 HUGE = (1_000, 10_000)
 #: a huge input is drawn about once in RARE (they cost far more than the others to send)
 RARE = 15

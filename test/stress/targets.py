@@ -98,11 +98,16 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
         with probe.cond:
             mark = probe.status_msgs
             diags = probe.diag_seen[key]
+        # a goal of huge arrays (up to 10,000 points x 10,000 values: 800 MB) takes seconds to
+        # serialize and deliver before the server sees it (measured here: 800 MB answered after
+        # 5.1 s, of which the server's part is 30 ms), so the bound grows by 1 s per 100 MB
+        values = sum(len(p.positions) + len(p.velocities) + len(p.accelerations)
+                     + len(p.effort) for p in msg.points)
         probe.pub_goal.publish(msg)
         sent_goals.append(msg.header.stamp)
         del sent_goals[:-50]
         return probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark
-                              or probe.diag_seen[key] > diags, 3.0)
+                              or probe.diag_seen[key] > diags, 3.0 + 8e-8 * values)
 
     def send_cancel(req):
         return probe.call(probe.cli_cancel, req, 3.0) is not None
