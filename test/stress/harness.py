@@ -718,6 +718,7 @@ def fuzz(strategy, send: Callable, count: int, graph: Graph, probe: Probe, targe
     finally:
         t1 = time.monotonic()
         camp.seconds = t1 - t0
-        for name in ('joint_states', 'ee_pose'):
+        # the watcher's view (the nodes' rate), and the probe's own (with its own stalls)
+        for name in ('joint_states', 'ee_pose', 'probe/joint_states'):
             camp.rates[name] = probe.rates[name].stats(t0, t1)
     return camp
