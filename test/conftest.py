@@ -100,3 +100,32 @@ def node_process():
         if p.killed:
             killed.append(p.name)
     assert not killed, f'processes ignored SIGINT and were killed: {killed}'
+
+
+_RERUN_FAILURES = []
+
+
+def pytest_runtest_logreport(report):
+    """Keep why a test failed before a rerun (``--reruns``) passed it: out/reruns.log."""
+    if report.outcome != 'rerun':
+        return
+    import time
+    text = report.longreprtext
+    _RERUN_FAILURES.append((report.nodeid, report.when, text))
+    out = os.path.join(ROOT, 'out')
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, 'reruns.log'), 'a', encoding='utf-8') as f:
+        f.write(f'=== {time.strftime("%Y-%m-%dT%H:%M:%S")} {report.nodeid} ({report.when})\n'
+                f'{text}\n')
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Print the last lines of every failure that a rerun then passed (flakes stay visible)."""
+    if not _RERUN_FAILURES:
+        return
+    terminalreporter.section('failures before a rerun (full text: out/reruns.log)')
+    for nodeid, when, text in _RERUN_FAILURES:
+        lines = [x for x in text.splitlines() if x.strip()]
+        terminalreporter.write_line(f'{nodeid} ({when}):')
+        for line in lines[-12:]:
+            terminalreporter.write_line(f'    {line[:300]}')

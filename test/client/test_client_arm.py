@@ -313,6 +313,8 @@ def test_velocities_and_efforts_exist(bot):
     assert bot.arm.wait_for_last_goal()
     # the trapezoid cruises at 1.0 / (1.0 - 0.2) = 1.25 rad/s (measured: more when the
     # simulation catches up after lagging on a loaded machine, never above the pi limit)
-    assert 1.0 <= max(waist_speeds) <= math.pi + 0.3, max(waist_speeds)
-    assert np.max(np.abs(bot.arm.get_joint_velocities())) < 0.05
+    assert waist_speeds and 1.0 <= max(waist_speeds) <= math.pi + 0.3, waist_speeds
+    # SUCCEEDED comes once within goal_tolerance; the PID loop may still be settling then
+    assert wait_until(lambda: np.max(np.abs(bot.arm.get_joint_velocities())) < 0.05, 1.0), \
+        bot.arm.get_joint_velocities()
     bot.arm.set_trajectory_time(MOVING_TIME, ACCEL_TIME)

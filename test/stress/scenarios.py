@@ -314,12 +314,14 @@ def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int
     """
     topics = ['/px100/trajectory/goal', '/px100/commands/joint_setpoints',
               '/px100/trajectory/status', '/px100/joint_states']
-    probe.record_setpoints(True)
     rec = graph.start('record', '-o', bag_dir, *topics)
     deadline = time.monotonic() + 20.0
     while probe.pub_goal.get_subscription_count() < 2 and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(1.0)
+    # from here on (the recorder subscribed), not before: a setpoint of an earlier goal sent
+    # while the recorder was starting is not one the scripts caused
+    probe.record_setpoints(True)
     # the scripts start (and connect) together, then drive the arm one after the other
     turn = os.path.join(os.path.dirname(os.path.abspath(bag_dir)), 'turn')
     with open(turn, 'w', encoding='utf-8') as f:
