@@ -36,7 +36,9 @@ Goal semantics (what a client relies on):
   setpoints of the ``path_window`` before its measurement's stamp (the reason names the joint,
   the measured value and the setpoint; the arm is then held where it was measured).
   Re-sending the running goal's id is ignored (reported on /diagnostics); an id that has ended
-  may be reused.
+  may be reused. Names and array lengths are checked on the serialized goal before it is
+  deserialized (a goal of 800 MB of wrongly sized arrays is refused in tens of ms); bytes that
+  are not a JointTrajectory are logged and dropped.
 - Every terminal status is published on ``/diagnostics`` (DiagnosticArray): name
   ``<robot_name>/trajectory_server``, ``hardware_id`` = the goal id, ``message`` = the reason,
   level OK (SUCCEEDED), WARN (CANCELED) or ERROR (ABORTED); it is logged too.
