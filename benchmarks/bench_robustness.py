@@ -3,11 +3,13 @@ Robustness campaign: fuzzed inputs, injected faults and load against the real px
 
 Runs the scenarios of ``test/stress`` at full size (10,000 hypothesis inputs per subscribed topic
 and service, 8 IK clients x 1,000 requests, every fault) and writes the figures (inputs tried
-and answered per target, node deaths, faults injected and survived, replies lost) to
+and answered per target, node deaths, the largest goal's answer time, faults injected and
+survived, replies lost) to
 ``benchmarks/results/robustness.json``. ``--quick`` runs the reduced sizes of the CI suite.
 Needs the package built and sourced (``bash scripts/setup.sh; source scripts/env.sh``); uses
 ``ROS_DOMAIN_ID`` (a private one is picked when unset). Usage:
-``python benchmarks/bench_robustness.py [--quick] [--only fuzz|faults|load] [--count N]``.
+``python benchmarks/bench_robustness.py [--quick] [--only fuzz|largest_goal|faults|load]
+[--count N]``.
 """
 import argparse
 import json
@@ -55,8 +57,7 @@ def _fuzz(graph, probe, lim, model, count_for, log, progress=None, targets_only=
             failure = f'{type(exc).__name__}: {exc}'
             camp = None
         graph.revive(probe, cause=f'after fuzzing {name}')
-        if t.after:
-            t.after()
+        not_restored = t.after() if t.after else None
         still = [p for p in (driver_works(probe), ik_works(probe, model),
                              goal_works(probe, lim)) if p]
         fig = camp.summary() if camp is not None else {'target': name}
@@ -64,7 +65,8 @@ def _fuzz(graph, probe, lim, model, count_for, log, progress=None, targets_only=
                     'deaths': graph.deaths[deaths_before:],
                     'violations': probe.violations[violations_before:][:10],
                     'violation_count': len(probe.violations) - violations_before,
-                    'still_working_problems': still})
+                    'still_working_problems': still,
+                    'parameters_not_restored': not_restored})
         out[name] = fig
         log(f'  -> tried {fig.get("tried")}, unanswered {fig.get("unanswered")}, deaths '
             f'{len(fig["deaths"])}, violations {fig["violation_count"]}, '
@@ -138,7 +140,7 @@ def run(quick: bool = False, only=None, count=None, log=print, output=None,
     Run the campaign and return its figures (see the module docstring).
 
     :param quick: reduced sizes (those of the CI suite)
-    :param only: None for everything, or a subset of {'fuzz', 'faults', 'load'}
+    :param only: None for everything, or a subset of {'fuzz', 'largest_goal', 'faults', 'load'}
     :param count: inputs per fuzz target (overrides quick/full)
     :param output: write the figures so far to this JSON file after every step
     :param targets: fuzz only these targets (names as in ``stress.targets.REDUCED``)
@@ -151,7 +153,7 @@ def run(quick: bool = False, only=None, count=None, log=print, output=None,
 
     model = load_robot('px100')
     lim = Limits.from_model(model)
-    only = set(only or ('fuzz', 'faults', 'load'))
+    only = set(only or ('fuzz', 'largest_goal', 'faults', 'load'))
 
     def count_for(name):
         if count is not None:
@@ -178,6 +180,12 @@ def run(quick: bool = False, only=None, count=None, log=print, output=None,
         if 'fuzz' in only:
             progress(_fuzz(graph, probe, lim, model, count_for, log,
                            lambda part: progress(part, 'fuzz'), targets), 'fuzz')
+        if 'largest_goal' in only:
+            from stress.scenarios import largest_goal
+            points = 1_000 if quick else 10_000
+            log(f'largest goal: {points:,} points x 10,000 velocities')
+            progress(largest_goal(probe, points=points), 'largest_goal')
+            log(f'  -> {result["largest_goal"]}')
         if 'faults' in only:
             progress(_faults(graph, probe, lim, model, log), 'faults')
         if 'load' in only:
@@ -204,6 +212,10 @@ def summarize(result: dict) -> dict:
         s['node_deaths'] = sum(len(f.get('deaths', [])) for f in fuzz.values())
         s['invalid_outputs'] = sum(f.get('violation_count', 0) for f in fuzz.values())
         s['targets_failed'] = sorted(n for n, f in fuzz.items() if f.get('failure'))
+    big = result.get('largest_goal')
+    if big:
+        s['largest_goal_mb'] = big.get('megabytes')
+        s['largest_goal_answer_s'] = big.get('answer_s')
     faults = result.get('faults', {})
     if faults:
         s['faults_injected'] = len(faults)
@@ -233,7 +245,8 @@ def main(argv=None) -> int:
     """Run the campaign, print the summary and write benchmarks/results/robustness.json."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--quick', action='store_true', help='reduced sizes (as in CI)')
-    parser.add_argument('--only', action='append', choices=('fuzz', 'faults', 'load'))
+    parser.add_argument('--only', action='append',
+                        choices=('fuzz', 'largest_goal', 'faults', 'load'))
     parser.add_argument('--count', type=int, help='inputs per fuzz target')
     parser.add_argument('--output', default=RESULTS)
     parser.add_argument('--target', action='append', help='fuzz only this target (repeatable)')
@@ -245,7 +258,8 @@ def main(argv=None) -> int:
     base = {}
     if opts.only and os.path.exists(opts.output):  # add these sections to an earlier run
         with open(opts.output, encoding='utf-8') as f:
-            base = {k: v for k, v in json.load(f).items() if k in ('fuzz', 'faults', 'load')}
+            base = {k: v for k, v in json.load(f).items()
+                    if k in ('fuzz', 'largest_goal', 'faults', 'load')}
     result = run(quick=opts.quick, only=opts.only, count=opts.count, log=log,
                  output=opts.output, targets=opts.target, base=base)
     write(result, opts.output)

@@ -35,7 +35,8 @@ from action_msgs.srv import CancelGoal
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseArray, PoseStamped
 from px100_control.ros.common import make_executor
-from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
+from rcl_interfaces.srv import (GetParameters, ListParameters, SetParameters,
+                                SetParametersAtomically)
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -601,6 +602,7 @@ class Probe:
     def param_client(self, node: str, kind: str):
         """Return a client for ``/<node>/<kind>`` (set_parameters, get_parameters, ...)."""
         types = {'set_parameters': SetParameters, 'get_parameters': GetParameters,
+                 'set_parameters_atomically': SetParametersAtomically,
                  'list_parameters': ListParameters}
         key = (node, kind)
         if key not in self._param_clients:

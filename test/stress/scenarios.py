@@ -225,6 +225,47 @@ def slow_subscriber(graph: Graph, probe: Probe, lim, model, mode: str,
 
 # -- load ------------------------------------------------------------------------------------
 
+def largest_goal(probe: Probe, points: int = 10_000, values: int = 10_000) -> dict:
+    """
+    Send the largest goal the fuzz strategy draws and time its answer.
+
+    The goal is one point with ``values`` velocities (for one joint), repeated ``points`` times:
+    8 * points * values bytes.
+
+    :return: figures: size [MB], seconds to publish and to the answer (a status or diagnostic
+        naming the goal), the reason given, the watcher's and the probe's longest joint_states
+        silence meanwhile [s]
+    """
+    import array
+
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    point = JointTrajectoryPoint(positions=[0.1], velocities=array.array('d', [0.5]) * values)
+    point.time_from_start.sec = 1
+    msg = JointTrajectory(joint_names=['waist'], points=[point] * points)
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_700_000_000, time.monotonic_ns() % 10 ** 9
+    key = stamp_text(msg.header.stamp)
+    with probe.cond:
+        mark, diags = probe.status_seen_goals.get(key, 0), probe.diag_seen[key]
+    t0 = time.monotonic()
+    probe.pub_goal.publish(msg)
+    t1 = time.monotonic()
+    answered = probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark
+                              or probe.diag_seen[key] > diags, 60.0)
+    t2 = time.monotonic()
+    del msg, point
+    time.sleep(0.5)
+    with probe.cond:
+        reasons = [d.message for d in probe.diagnostics if d.hardware_id == key]
+    t3 = time.monotonic()
+    return {'megabytes': round(8 * points * values / 1e6, 1), 'publish_s': round(t1 - t0, 3),
+            'answered': answered, 'answer_s': round(t2 - t0, 3),
+            'reason': reasons[-1] if reasons else None,
+            'joint_states_max_gap_s': round(
+                probe.rates['joint_states'].stats(t0, t3)['max_gap'], 3),
+            'probe_joint_states_max_gap_s': round(
+                probe.rates['probe/joint_states'].stats(t0, t3)['max_gap'], 3)}
+
+
 def ik_load(clients: int, count: int, timeout: float = 5.0, processes: bool = True) -> dict:
     """
     Run ``clients`` IK clients, ``count`` closed-loop requests each, all at once.

@@ -16,7 +16,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from hypothesis import strategies as st
 from rcl_interfaces.msg import Parameter, ParameterType
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -179,17 +179,38 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
 
 
 def restore_parameters(probe: Probe, node: str, values) -> List[str]:
-    """Set a node's parameters back to a snapshot {name: ParameterValue}; return failures."""
+    """
+    Set a node's parameters back to a snapshot {name: ParameterValue}; return those that failed.
+
+    All at once first (a node checks rates against each other: restoring them one by one can
+    be refused in one order), then one by one, repeated while that makes progress.
+    """
     if not values:
         return []
+    now = probe.get_parameters(node, list(values))
+    if now is None:
+        return list(values)
+    # only those that changed (read-only ones cannot, and setting them is refused)
+    params = [Parameter(name=name, value=value) for name, value in values.items()
+              if now.get(name) != value]
+    if not params:
+        return []
+    res = probe.call(probe.param_client(node, 'set_parameters_atomically'),
+                     SetParametersAtomically.Request(parameters=params), 3.0)
+    if res is not None and res.result.successful:
+        return []
     cli = probe.param_client(node, 'set_parameters')
-    failed = []
-    for name, value in values.items():
-        res = probe.call(cli, SetParameters.Request(parameters=[Parameter(name=name,
-                                                                          value=value)]), 3.0)
-        if res is None or not res.results[0].successful:
-            failed.append(name)
-    return failed
+    pending = params
+    while pending:
+        failed = []
+        for p in pending:
+            res = probe.call(cli, SetParameters.Request(parameters=[p]), 3.0)
+            if res is None or not res.results[0].successful:
+                failed.append(p)
+        if len(failed) == len(pending):
+            break
+        pending = failed
+    return [p.name for p in pending]
 
 
 # -- valid requests: the nodes still work ----------------------------------------------------

@@ -15,6 +15,7 @@ import time
 import pytest
 
 from .harness import full_mode, fuzz, stress_size
+from .scenarios import largest_goal
 from .targets import driver_works, goal_works, ik_works, make_targets, REDUCED, SLEEP
 
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
@@ -67,8 +68,8 @@ def test_fuzz_target(name, graph, targets, module_probe, limits, model):
         camp = fuzz(target.strategy, target.send, count, graph, module_probe, name,
                     derandomize=not full_mode())
     finally:
-        if target.after:
-            target.after()
+        not_restored = target.after() if target.after else None
+    assert not not_restored, f'parameters not restored after the campaign: {not_restored}'
     after = _window(module_probe)
     for _ in range(2):  # a slow window must persist to count (a starved CPU recovers)
         if all(after[t]['rate'] >= RECOVER * min(before[t]['rate'], NOMINAL)
@@ -97,6 +98,21 @@ def test_fuzz_target(name, graph, targets, module_probe, limits, model):
     problems = _still_working(module_probe, limits, model, goal=name.startswith('traj'))
     assert not problems, f'after fuzzing {name}: {problems}'
     assert not module_probe.violations, module_probe.violations[:3]
+
+
+def test_largest_goal_is_refused_quickly_and_stalls_nothing(graph, module_probe, limits):
+    """
+    The largest goal the strategy draws is ABORTED within the fuzz bound; nothing stalls.
+
+    Sizes: 80 MB (a tenth); 800 MB with PX100_STRESS=full. The reason names the wrong length.
+    """
+    fig = largest_goal(module_probe, points=stress_size(1_000, 10_000))
+    FIGURES['largest_goal'] = fig
+    assert fig['answered'] and fig['answer_s'] <= 3.0 + 1e-8 * fig['megabytes'] * 1e6, fig
+    assert 'velocities for 1 joints' in (fig['reason'] or ''), fig
+    assert fig['joint_states_max_gap_s'] <= MAX_GAP, fig
+    assert not graph.dead()
+    assert not goal_works(module_probe, limits)
 
 
 def test_nodes_still_work_after_all_campaigns(graph, module_probe, limits, model):
