@@ -68,6 +68,8 @@ MAX_CHUNK = 0.5
 CATCH_UP = 2.0
 #: wall-time budget of one chunk in clock-master mode [s]
 CHUNK_BUDGET = 0.008
+#: most of a CPU core the physics may need to follow the clock at a requested control_rate
+MAX_PHYSICS_LOAD = 0.8
 
 _CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
                 'clock_rate', 'dynamics_divider', 'object_width', 'gains_units')
@@ -140,6 +142,8 @@ class SimDriverNode(Node):
         self._clock_rate = float(p['clock_rate'])
         self._dt_ns = int(round(1e9 / float(p['control_rate'])))
         self._steps_done = 0
+        #: wall seconds of one physics step (fastest chunk seen; None until measured)
+        self._step_cost: Optional[float] = None
         self._names = list(self.sim.joint_state().name)
         self._base_frame = frame_id(self, self.model.base_frame)
         self._timers: List = []
@@ -283,7 +287,15 @@ class SimDriverNode(Node):
                     'this driver follows the node clock; start it with real_time_factor != 1 '
                     'or publish_clock:=true to run on its own clock'))
             if 'control_rate' in changed:
-                dt = 1.0 / float(changed['control_rate'])
+                rate = float(changed['control_rate'])
+                if self._step_cost is not None and not self._master \
+                        and rate * self._step_cost > MAX_PHYSICS_LOAD:
+                    return SetParametersResult(successful=False, reason=(
+                        f'control_rate {rate:g} Hz: one physics step takes '
+                        f'{self._step_cost * 1e6:.0f} us here, so the simulation could not '
+                        f'keep up with the clock (at most '
+                        f'{MAX_PHYSICS_LOAD / self._step_cost:.0f} Hz on this machine)'))
+                dt = 1.0 / rate
                 for joint in self._gain_joints:
                     error = self._stability_error(joint, self.sim.gains(joint), dt)
                     if error:
@@ -441,9 +453,32 @@ class SimDriverNode(Node):
 
     def _advance_steps(self, steps: int) -> None:
         step = self.sim.step
+        t0 = time.perf_counter()
         for _ in range(steps):
             step()
         self._sim_ns += steps * self._dt_ns
+        if steps >= 5:   # the fastest chunk seen: what this machine needs per step, unloaded
+            cost = (time.perf_counter() - t0) / steps
+            if self._step_cost is None or cost < self._step_cost:
+                self._step_cost = cost
+
+    def _capped_steps(self, behind_ns: int) -> int:
+        """
+        Return the physics steps to integrate ``behind_ns`` of simulated time, at most MAX_CHUNK.
+
+        Further behind (a starved process, or a control_rate this machine cannot integrate in
+        real time), the rest of the time is dropped (``_start_ns`` moves on) instead of making
+        the next chunk longer still: lateness stays bounded and the lock is never held long.
+        """
+        steps = behind_ns // self._dt_ns
+        max_steps = int(MAX_CHUNK * 1e9 // self._dt_ns)
+        if steps > max_steps:
+            self.get_logger().warning(
+                f'simulation fell {behind_ns * 1e-9:.3f} s behind the clock; skipping ahead',
+                throttle_duration_sec=5.0)
+            self._start_ns += (steps - max_steps) * self._dt_ns
+            steps = max_steps
+        return int(steps)
 
     def _advance_to_clock(self) -> int:
         """Advance the physics to the node clock's now; return now [ns]."""
@@ -454,15 +489,7 @@ class SimDriverNode(Node):
         if target < self._sim_ns:   # the clock jumped back (e.g. /clock restarted)
             self._start_ns = now - self._sim_ns
             return now
-        steps = (target - self._sim_ns) // self._dt_ns
-        max_steps = int(MAX_CHUNK * 1e9 // self._dt_ns)
-        if steps > max_steps:
-            self.get_logger().warning(
-                f'simulation fell {(target - self._sim_ns) * 1e-9:.3f} s behind the clock; '
-                'skipping ahead', throttle_duration_sec=5.0)
-            self._start_ns += (steps - max_steps) * self._dt_ns
-            steps = max_steps
-        self._advance_steps(int(steps))
+        self._advance_steps(self._capped_steps(target - self._sim_ns))
         return now
 
     def _on_follow_tick(self) -> None:
@@ -482,9 +509,9 @@ class SimDriverNode(Node):
         command already made the physics catch up beyond it.
         """
         with self._lock:
-            steps = (stamp_ns - self._start_ns - self._sim_ns) // self._dt_ns
+            steps = self._capped_steps(stamp_ns - self._start_ns - self._sim_ns)
             if steps > 0:
-                self._advance_steps(int(steps))
+                self._advance_steps(steps)
             self._publish_state(self._start_ns + self._sim_ns)
 
     def _paced_follow(self) -> None:

@@ -236,6 +236,43 @@ def test_parameters_are_validated_live(spin_node, rclpy_context):
     assert driver.sim.config.dynamics_divider == 2
 
 
+def test_control_rate_this_machine_cannot_follow_is_refused(spin_node, rclpy_context):
+    """
+    A control_rate whose physics would need most of a core is refused with the measured cost.
+
+    (One step takes about 44 us here: 100 kHz would need 4.4 cores.) A far-behind clock is
+    caught up by at most MAX_CHUNK of physics, the rest of the time dropped.
+    """
+    from px100_control.ros import sim_driver_node as sd
+    from rclpy.parameter_client import AsyncParameterClient
+    driver, probe = start(spin_node, rclpy_context)
+    client = AsyncParameterClient(probe.node, 'sim_driver')
+    assert client.wait_for_services(timeout_sec=10.0)
+    probe.wait(lambda: driver._step_cost is not None, what='a measured physics step')
+
+    def set_param(name, value):
+        future = client.set_parameters([Parameter(name, value=value)])
+        deadline = time.monotonic() + 10
+        while not future.done() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return future.result().results[0]
+
+    result = set_param('control_rate', 100000.0)
+    assert not result.successful and 'could not keep up' in result.reason, result.reason
+    assert driver._dt_ns == 1_000_000
+    assert set_param('control_rate', 2000.0).successful
+    assert driver._dt_ns == 500_000
+    with driver._lock:
+        start_ns = driver._start_ns
+        steps = driver._capped_steps(10 * 10 ** 9)
+        assert steps == int(sd.MAX_CHUNK * 2000)
+        assert driver._start_ns - start_ns == 10 * 10 ** 9 - steps * 500_000
+        driver._start_ns = start_ns
+    n = len(probe.js)
+    time.sleep(1.0)
+    assert len(probe.js) - n >= 50, 'joint_states stopped'
+
+
 def test_fast_mode_publishes_sim_clock(spin_node, rclpy_context):
     """real_time_factor 0: the driver owns /clock; joint_states are stamped with it."""
     driver, probe = start(spin_node, rclpy_context, light=True, real_time_factor=0.0)
