@@ -273,6 +273,17 @@ def test_control_rate_this_machine_cannot_follow_is_refused(spin_node, rclpy_con
     assert len(probe.js) - n >= 50, 'joint_states stopped'
 
 
+def test_slow_publish_rate_drops_no_simulated_time(spin_node, rclpy_context):
+    """At publish_rate 1 Hz each sample integrates a whole second: none of it is skipped."""
+    driver, probe = start(spin_node, rclpy_context, publish_rate=1.0)
+    with driver._lock:
+        start_ns = driver._start_ns
+    time.sleep(2.2)
+    with driver._lock:
+        assert driver._start_ns == start_ns, 'simulated time was dropped'
+        assert driver._sim_ns >= 2 * 10 ** 9
+
+
 def test_fast_mode_publishes_sim_clock(spin_node, rclpy_context):
     """real_time_factor 0: the driver owns /clock; joint_states are stamped with it."""
     driver, probe = start(spin_node, rclpy_context, light=True, real_time_factor=0.0)
