@@ -465,15 +465,19 @@ class SimDriverNode(Node):
             if self._step_cost is None or cost < self._step_cost:
                 self._step_cost = cost
 
-    def _capped_steps(self, behind_ns: int, limit_s: float = MAX_CHUNK) -> int:
+    def _capped_steps(self, behind_ns: int) -> int:
         """
-        Return the physics steps to integrate ``behind_ns`` of simulated time, at most limit_s.
+        Return the physics steps to integrate ``behind_ns`` of simulated time.
+
+        At most MAX_CHUNK, or one publish period if longer (between two samples that much is
+        normally pending: publish_rate goes down to 0.1 Hz).
 
         Further behind (a starved process, or a control_rate this machine cannot integrate in
         real time), the rest of the time is dropped (``_start_ns`` moves on) instead of making
-        the next chunk longer still: lateness stays bounded and the lock is never held long.
+        the next chunk longer still: lateness and the time the lock is held stay bounded.
         """
         steps = behind_ns // self._dt_ns
+        limit_s = max(MAX_CHUNK, 1.0 / self._publish_rate)
         max_steps = int(limit_s * 1e9 // self._dt_ns)
         if steps > max_steps:
             self.get_logger().warning(
@@ -512,9 +516,7 @@ class SimDriverNode(Node):
         command already made the physics catch up beyond it.
         """
         with self._lock:
-            # one publish period is a normal chunk, however long (publish_rate down to 0.1 Hz)
-            steps = self._capped_steps(stamp_ns - self._start_ns - self._sim_ns,
-                                       max(MAX_CHUNK, 1.0 / self._publish_rate))
+            steps = self._capped_steps(stamp_ns - self._start_ns - self._sim_ns)
             if steps > 0:
                 self._advance_steps(steps)
             self._publish_state(self._start_ns + self._sim_ns)

@@ -274,11 +274,16 @@ def test_control_rate_this_machine_cannot_follow_is_refused(spin_node, rclpy_con
 
 
 def test_slow_publish_rate_drops_no_simulated_time(spin_node, rclpy_context):
-    """At publish_rate 1 Hz each sample integrates a whole second: none of it is skipped."""
+    """At publish_rate 1 Hz a sample (or a setpoint between two) integrates up to a second."""
     driver, probe = start(spin_node, rclpy_context, publish_rate=1.0)
     with driver._lock:
         start_ns = driver._start_ns
-    time.sleep(2.2)
+    for _ in range(2):   # a setpoint 0.8 s after a sample catches the physics up 0.8 s
+        n = len(probe.js)
+        probe.wait(lambda: len(probe.js) > n, what='the next sample')
+        time.sleep(0.8)
+        probe.send(['waist'], [0.0])
+    time.sleep(0.3)
     with driver._lock:
         assert driver._start_ns == start_ns, 'simulated time was dropped'
         assert driver._sim_ns >= 2 * 10 ** 9
