@@ -9,6 +9,7 @@ Injected faults: nodes killed mid-work, the recorder SIGKILLed, subscribers that
 - the recorder SIGKILLed: the bag reads back up to its last chunk.
 - a subscriber that never spins, or sleeps 1 s per callback: no node's publishing stalls.
 """
+import json
 import signal
 
 import pytest
@@ -28,6 +29,11 @@ LOST_TAIL_BOUND = 2.0
 FIGURES = {}
 
 
+def _text(fig) -> str:
+    """Return the whole figures (pytest cuts a dict in an assertion message to a line)."""
+    return json.dumps(fig, indent=1, default=str)
+
+
 @pytest.fixture(scope='module')
 def bot(graph):
     """One Interbotix-compatible client for the whole module (never re-created)."""
@@ -45,38 +51,40 @@ def test_kill_driver_mid_trajectory(sig, graph, module_probe, bot):
     from action_msgs.msg import GoalStatus
     fig = kill_driver_mid_trajectory(graph, module_probe, bot, sig)
     FIGURES[f'kill_driver_{fig["signal"]}'] = fig
-    assert 'error' not in fig, fig
-    assert fig['client_ok'] is False, fig
-    assert fig['client_return_s'] is not None and fig['client_return_s'] <= FAIL_BOUND, fig
-    assert 'sim_driver' in fig['client_reason'] or 'joint' in fig['client_reason'], fig
-    assert fig['final_status'] == GoalStatus.STATUS_ABORTED, fig
-    assert fig['abort_s'] is not None and fig['abort_s'] <= FAIL_BOUND, fig
+    assert 'error' not in fig, _text(fig)
+    assert fig['client_ok'] is False, _text(fig)
+    assert fig['client_return_s'] is not None and fig['client_return_s'] <= FAIL_BOUND, \
+        _text(fig)
+    assert 'sim_driver' in fig['client_reason'] or 'joint' in fig['client_reason'], _text(fig)
+    assert fig['final_status'] == GoalStatus.STATUS_ABORTED, _text(fig)
+    assert fig['abort_s'] is not None and fig['abort_s'] <= FAIL_BOUND, _text(fig)
     errors = [m for level, m in fig['diagnostic'] if level == 2 and m.strip()]
-    assert errors, f'no ERROR diagnostic with a reason for the aborted goal: {fig}'
-    assert fig['recovered'], fig
+    assert errors, f'no ERROR diagnostic with a reason for the aborted goal: {_text(fig)}'
+    assert fig['recovered'], _text(fig)
 
 
 def test_kill_ik_service(graph, module_probe, bot, model):
     """An IK call to a killed ik_service fails clearly within a bound; a restart heals."""
     fig = kill_ik_service(graph, module_probe, bot, model)
     FIGURES['kill_ik_service'] = fig
-    assert fig['raised'] and 'ik_service' in fig['raised'], fig
-    assert fig['request_s'] <= IK_BOUND, fig
-    assert fig['arm_ok'] is False and fig['arm_s'] <= IK_BOUND, fig
-    assert fig['recovered'] and fig['arm_recovered'], fig
+    assert fig['raised'] and 'ik_service' in fig['raised'], _text(fig)
+    assert fig['request_s'] <= IK_BOUND, _text(fig)
+    assert fig['arm_ok'] is False and fig['arm_s'] <= IK_BOUND, _text(fig)
+    assert fig['recovered'] and fig['arm_recovered'], _text(fig)
 
 
 def test_recorder_sigkill_bag_readable(graph, module_probe, limits, tmp_path):
     """A SIGKILLed recorder leaves a bag that reads back up to its last chunk."""
     fig = recorder_sigkill(graph, module_probe, limits, str(tmp_path / 'killed_bag'))
     FIGURES['recorder_sigkill'] = fig
-    assert fig['files'], fig
-    assert fig['stream_read_joint_states'] > 0, fig
-    assert fig['reindex_exit'] == 0, fig
-    assert isinstance(fig['reader_messages'], int), fig
-    assert fig['reader_messages'] >= fig['stream_read_messages'], fig
+    assert fig['files'], _text(fig)
+    assert fig['stream_read_joint_states'] > 0, _text(fig)
+    assert fig['reindex_exit'] == 0, _text(fig)
+    assert isinstance(fig['reader_messages'], int), _text(fig)
+    assert fig['reader_messages'] >= fig['stream_read_messages'], _text(fig)
     # the recorder writes a chunk at least every flush period (1 s): that bounds the loss
-    assert fig['lost_tail_s'] is not None and fig['lost_tail_s'] <= LOST_TAIL_BOUND, fig
+    assert fig['lost_tail_s'] is not None and fig['lost_tail_s'] <= LOST_TAIL_BOUND, \
+        _text(fig)
 
 
 @pytest.mark.parametrize('mode', ['nospin', 'sleep'])
@@ -84,12 +92,12 @@ def test_slow_subscriber_stalls_nothing(mode, graph, module_probe, limits, model
     """A subscriber that never reads does not slow the nodes down."""
     fig = slow_subscriber(graph, module_probe, limits, model, mode)
     FIGURES[f'slow_subscriber_{mode}'] = fig
-    assert fig['started'] and fig['slow_alive'], fig
-    assert all(fig['nodes_alive'].values()), fig
-    assert fig['goal'] == '' and fig['goal_back'] == '', fig
-    assert fig['ik'] == '', fig
+    assert fig['started'] and fig['slow_alive'], _text(fig)
+    assert all(fig['nodes_alive'].values()), _text(fig)
+    assert fig['goal'] == '' and fig['goal_back'] == '', _text(fig)
+    assert fig['ik'] == '', _text(fig)
     for topic, st in fig['rates'].items():
-        assert st['rate'] >= MIN_RATE and st['max_gap'] <= MAX_GAP, (topic, fig)
+        assert st['rate'] >= MIN_RATE and st['max_gap'] <= MAX_GAP, (topic, _text(fig))
 
 
 def test_write_figures():
