@@ -200,10 +200,9 @@ def test_gripper_effort_and_object_grasp(spin_node, rclpy_context):
     assert js.effort[4] == pytest.approx(-0.4)                  # and the servo keeps squeezing
 
 
-def test_parameters_are_validated_live(spin_node, rclpy_context):
-    """Gains change live; nonsense is refused with a reason (through the parameter service)."""
+def _parameter_setter(probe):
+    """Return set_param(name, value) -> SetParametersResult, through sim_driver's service."""
     from rclpy.parameter_client import AsyncParameterClient
-    driver, probe = start(spin_node, rclpy_context)
     client = AsyncParameterClient(probe.node, 'sim_driver')
     assert client.wait_for_services(timeout_sec=10.0)
 
@@ -213,7 +212,13 @@ def test_parameters_are_validated_live(spin_node, rclpy_context):
         while not future.done() and time.monotonic() < deadline:
             time.sleep(0.01)
         return future.result().results[0]
+    return set_param
 
+
+def test_parameters_are_validated_live(spin_node, rclpy_context):
+    """Gains change live; nonsense is refused with a reason (through the parameter service)."""
+    driver, probe = start(spin_node, rclpy_context)
+    set_param = _parameter_setter(probe)
     ok = set_param('gains.shoulder.p', 30.0)
     assert ok.successful, ok.reason
     assert driver.sim.gains('shoulder').p == 30.0
@@ -244,19 +249,9 @@ def test_control_rate_this_machine_cannot_follow_is_refused(spin_node, rclpy_con
     caught up by at most MAX_CHUNK of physics, the rest of the time dropped.
     """
     from px100_control.ros import sim_driver_node as sd
-    from rclpy.parameter_client import AsyncParameterClient
     driver, probe = start(spin_node, rclpy_context)
-    client = AsyncParameterClient(probe.node, 'sim_driver')
-    assert client.wait_for_services(timeout_sec=10.0)
+    set_param = _parameter_setter(probe)
     probe.wait(lambda: driver._step_cost is not None, what='a measured physics step')
-
-    def set_param(name, value):
-        future = client.set_parameters([Parameter(name, value=value)])
-        deadline = time.monotonic() + 10
-        while not future.done() and time.monotonic() < deadline:
-            time.sleep(0.01)
-        return future.result().results[0]
-
     result = set_param('control_rate', 100000.0)
     assert not result.successful and 'could not keep up' in result.reason, result.reason
     assert driver._dt_ns == 1_000_000
