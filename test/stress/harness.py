@@ -22,6 +22,7 @@ from collections import defaultdict, deque
 from dataclasses import dataclass, field
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -269,6 +270,17 @@ def script_env() -> dict:
     return env
 
 
+def _window_stats(ts, t0: float, t1: float) -> dict:
+    """Return {'rate': Hz, 'max_gap': s, 'count': n} of sorted receive times ts in [t0, t1]."""
+    if not len(ts):
+        return {'rate': 0.0, 'max_gap': t1 - t0, 'count': 0}
+    gap = max(ts[0] - t0, t1 - ts[-1])
+    for a, b in zip(ts, ts[1:]):
+        if b - a > gap:
+            gap = b - a
+    return {'rate': len(ts) / max(t1 - t0, 1e-9), 'max_gap': gap, 'count': len(ts)}
+
+
 class RateMeter:
     """Receive times [s, monotonic] of one topic; rates and gaps over a time window."""
 
@@ -290,11 +302,7 @@ class RateMeter:
         """Return {'rate': Hz, 'max_gap': s, 'count': n} over [t0, t1]."""
         with self.lock:
             ts = [t for t in self.times if t0 <= t <= t1]
-        if not ts:
-            return {'rate': 0.0, 'max_gap': t1 - t0, 'count': 0}
-        edges = [t0] + ts + [t1]
-        gap = max(b - a for a, b in zip(edges, edges[1:]))
-        return {'rate': len(ts) / max(t1 - t0, 1e-9), 'max_gap': gap, 'count': len(ts)}
+        return _window_stats(ts, t0, t1)
 
 
 class WatchedRates(RateMeter):
@@ -337,13 +345,7 @@ class WatchedRates(RateMeter):
             lo = bisect.bisect_left(self.times, t0)
             hi = bisect.bisect_right(self.times, t1)
             ts = self.times[lo:hi]
-        if not ts:
-            return {'rate': 0.0, 'max_gap': t1 - t0, 'count': 0}
-        gap = max(ts[0] - t0, t1 - ts[-1])
-        for a, b in zip(ts, ts[1:]):
-            if b - a > gap:
-                gap = b - a
-        return {'rate': len(ts) / max(t1 - t0, 1e-9), 'max_gap': gap, 'count': len(ts)}
+        return _window_stats(ts, t0, t1)
 
     def close(self) -> None:
         """Close the file."""
@@ -389,7 +391,7 @@ class Probe:
             [sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                           'rate_watcher.py'), '--dir', self._watcher_dir,
              '--robot-name', robot_name],
-            stdout=subprocess.PIPE, text=True, env=script_env())
+            stdout=subprocess.DEVNULL, env=script_env())
         for name in ('joint_states', 'ee_pose'):
             self.rates[name] = WatchedRates(os.path.join(self._watcher_dir, f'{name}.f64'))
         self.ik_status: Dict[str, List[DiagnosticStatus]] = defaultdict(list)
@@ -452,6 +454,7 @@ class Probe:
         for meter in self.rates.values():
             if isinstance(meter, WatchedRates):
                 meter.close()
+        shutil.rmtree(self._watcher_dir, ignore_errors=True)
         self._spinning.clear()
         self.thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
