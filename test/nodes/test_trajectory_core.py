@@ -301,3 +301,26 @@ def test_bad_planner_input_raises():
         tj.plan_stop(np.zeros(2), np.zeros(2), 0.0)
     with pytest.raises(InvalidInputError):
         tj.plan_move(np.zeros(4), np.ones(4), 1.0).sample(float('nan'))
+
+
+@pytest.mark.parametrize('names, lengths, expected', [
+    (['waist', 'bogus'], [(2, 0, 0, 0)], 'unknown joint'),
+    (['waist', 'waist'], [(2, 0, 0, 0)], 'duplicate'),
+    ([], [(0, 0, 0, 0)], 'no joint names'),
+    (['waist'], [(1, 0, 0, 0), (2, 0, 0, 0)], 'point 1: 2 positions for 1 joints'),
+    (['waist', 'elbow'], [(2, 3, 0, 0)], 'point 0: 3 velocities for 2 joints'),
+    (['waist', 'elbow'], [(2, 2, 1, 0)], 'point 0: 1 accelerations for 2 joints'),
+])
+def test_shape_validation_names_the_reason(names, lengths, expected):
+    """validate_shape (names and lengths only) refuses with validate_points' reason."""
+    assert expected in tj.validate_shape(NAMES, names, lengths)
+    rows = [[0.0] * p for p, _, _, _ in lengths]
+    vels = [[0.0] * v for _, v, _, _ in lengths]
+    accs = [[0.0] * a for _, _, a, _ in lengths]
+    assert expected in tj.validate_points(NAMES, names, [0.5 * (k + 1) for k in range(len(rows))],
+                                          rows, vels, accs)
+
+
+def test_shape_validation_passes_what_only_values_make_invalid():
+    """Right names and lengths pass validate_shape (effort counts are not checked)."""
+    assert tj.validate_shape(NAMES, ['elbow', 'waist'], [(2, 0, 0, 0), (2, 2, 2, 7)]) == ''
