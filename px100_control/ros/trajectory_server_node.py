@@ -51,6 +51,7 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 import math
 import threading
+import time
 from typing import Optional
 
 from action_msgs.msg import GoalInfo, GoalStatus, GoalStatusArray
@@ -62,6 +63,7 @@ from px100_control.errors import InvalidInputError
 from px100_control.ros import cdr
 from px100_control.ros.common import declare_robot_parameters, robot_name, robot_topic, spin_node
 from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
+from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -85,6 +87,11 @@ DIAG_LEVEL = {GoalStatus.STATUS_SUCCEEDED: DiagnosticStatus.OK,
 #: every transition (ACCEPTED and EXECUTING are published back to back)
 STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                         reliability=ReliabilityPolicy.RELIABLE)
+
+#: the stale-state watchdog's period [s]; a watchdog check this much later than the previous one
+#: means the node was not scheduled (logged with what ran longest meanwhile)
+WATCHDOG_PERIOD = 0.02
+STALL_WARN = 0.25
 
 #: parameter -> (default, description); defaults mirror config/px100.yaml
 PARAMETERS = {
@@ -148,6 +155,9 @@ class TrajectoryServerNode(Node):
         self._js_map = None
         self._active: Optional[_Goal] = None
         self._stale_checks = 0
+        # late watchdog checks (the node not scheduled, a publish blocked): logged with their cause
+        self._stalls = StallMeter(WATCHDOG_PERIOD, STALL_WARN)
+        self._last_stall = None   # (steady ns when noticed, Stall)
         self._history: 'OrderedDict[tuple, GoalStatus]' = OrderedDict()
 
         # deep enough that a reader stalled for a moment loses no setpoint (200 Hz)
@@ -168,7 +178,8 @@ class TrajectoryServerNode(Node):
                                  self._on_goal_serialized, QoSProfile(depth=10), raw=True)
         self.create_service(CancelGoal, robot_topic(self, 'trajectory/cancel'), self._on_cancel)
         self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
-        self._watchdog = self.create_timer(0.02, self._on_watchdog, clock=self._steady)
+        self._watchdog = self.create_timer(WATCHDOG_PERIOD, self._on_watchdog,
+                                           clock=self._steady)
         self._setpoint = JointState()
         self._setpoint.name = list(self._names)
         self._publish_status()
@@ -224,6 +235,13 @@ class TrajectoryServerNode(Node):
 
     def _on_goal_serialized(self, data: bytes) -> None:
         """Refuse a goal with wrong names or array lengths on its bytes; else deserialize it."""
+        t0 = time.monotonic_ns()
+        try:
+            self._take_goal(data)
+        finally:
+            self._stalls.note(f'a goal of {len(data)} bytes', time.monotonic_ns() - t0)
+
+    def _take_goal(self, data: bytes) -> None:
         if self._pre_read:
             try:
                 (sec, nanosec), names, lengths = cdr.trajectory_shape(data)
@@ -405,6 +423,13 @@ class TrajectoryServerNode(Node):
 
     # ------------------------------------------------------------------ execution
     def _on_tick(self) -> None:
+        t0 = time.monotonic_ns()
+        try:
+            self._tick()
+        finally:
+            self._stalls.note('a setpoint tick', time.monotonic_ns() - t0)
+
+    def _tick(self) -> None:
         with self._lock:
             g = self._active
             if g is None:
@@ -477,8 +502,15 @@ class TrajectoryServerNode(Node):
 
         Runs on the steady clock (also when a sim clock stops). A stale state must be seen on
         two consecutive checks, so that joint_states still queued behind this timer after a
-        scheduling stall of this process are read before the driver is declared dead.
+        scheduling stall of this process are read before the driver is declared dead. A check
+        that comes late (the node was not scheduled) is logged with what ran longest meanwhile,
+        and an abort noticed late says so in its reason.
         """
+        now_ns = self._steady.now().nanoseconds
+        stall = self._stalls.check(now_ns)
+        if stall is not None:
+            self._last_stall = (now_ns, stall)
+            self.get_logger().warning(f'trajectory_server {stall.describe()}')
         with self._lock:
             g = self._active
             age = self._state_age()
@@ -490,9 +522,12 @@ class TrajectoryServerNode(Node):
                 return
             self._stale_checks = 0
             self._active = None
-            self._finish(g, GoalStatus.STATUS_ABORTED,
-                         f'driver not publishing joint_states (none for {age:.2f} s, '
-                         f'state_timeout {self._param("state_timeout")} s)')
+            reason = (f'driver not publishing joint_states (none for {age:.2f} s, '
+                      f'state_timeout {self._param("state_timeout")} s)')
+            if self._last_stall is not None and self._last_stall[0] >= (self._meas_steady_ns
+                                                                        or 0):
+                reason += f'; noticed late: this node was {self._last_stall[1].describe()}'
+            self._finish(g, GoalStatus.STATUS_ABORTED, reason)
 
     def _send(self, q, qd, now=None) -> None:
         """Publish a setpoint (and the same as feedback), stamped with its sample time."""
@@ -500,8 +535,12 @@ class TrajectoryServerNode(Node):
         msg.header.stamp = (now or self.get_clock().now()).to_msg()
         msg.position = q.tolist()
         msg.velocity = qd.tolist()
+        t0 = time.monotonic_ns()
         self._pub_setpoint.publish(msg)
+        t1 = time.monotonic_ns()
         self._pub_feedback.publish(msg)
+        self._stalls.note('publishing a setpoint', t1 - t0)
+        self._stalls.note('publishing feedback', time.monotonic_ns() - t1)
 
     def _hold_measured(self) -> None:
         if not np.any(np.isnan(self._meas)):

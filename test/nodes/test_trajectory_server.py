@@ -7,6 +7,9 @@ margins for a loaded 2-core machine but still fail on a wrong behaviour (a goal 
 an abort that never comes, a jump in the setpoints).
 """
 import array
+import os
+import re
+import signal
 import time
 
 from action_msgs.srv import CancelGoal
@@ -325,6 +328,33 @@ def test_driver_silent_aborts_within_bound(fresh):
     assert env.client.wait_terminal(stamp, 5.0) == 'ABORTED'
     assert time.monotonic() - t0 < 0.5 + 1.0
     assert 'joint_states' in env.client.last_diagnostic(stamp).message
+
+
+def test_stalled_server_says_why_its_abort_came_late(fresh):
+    """
+    A server not scheduled for 1.5 s (SIGSTOP) says so in its late abort's reason and log.
+
+    The driver goes silent while the server process is stopped: the abort comes after SIGCONT,
+    and its reason and the log say the node was stalled and for how long.
+    """
+    env = fresh
+    env.set_params(state_timeout=0.5)
+    stamp = env.client.send(['waist'], [(4.0, [0.9])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(0.3)
+    env.driver.silent = True
+    os.kill(env.server.pid, signal.SIGSTOP)
+    try:
+        time.sleep(1.5)
+    finally:
+        os.kill(env.server.pid, signal.SIGCONT)
+    assert env.client.wait_terminal(stamp, 5.0) == 'ABORTED'
+    msg = env.client.last_diagnostic(stamp).message
+    assert 'joint_states' in msg and 'noticed late' in msg, msg
+    gap = float(re.search(r'not scheduled for ([0-9.]+) s', msg).group(1))
+    assert 1.4 <= gap <= 4.0, msg
+    assert wait_for(lambda: 'not scheduled for' in env.server.output(), 5.0), \
+        env.server.output()[-2000:]
 
 
 def test_goal_on_stale_joint_states_is_refused_then_accepted_again(fresh):

@@ -394,6 +394,8 @@ class Probe:
             stdout=subprocess.DEVNULL, env=script_env())
         for name in ('joint_states', 'ee_pose'):
             self.rates[name] = WatchedRates(os.path.join(self._watcher_dir, f'{name}.f64'))
+        #: the watcher's own 100 Hz heartbeat: its gaps are stalls of the machine, not a node's
+        self.heartbeat = WatchedRates(os.path.join(self._watcher_dir, 'heartbeat.f64'))
         self.ik_status: Dict[str, List[DiagnosticStatus]] = defaultdict(list)
         self.ik_solutions: Dict[str, List[JointState]] = defaultdict(list)
         self.path_solutions: Dict[str, List[JointTrajectory]] = defaultdict(list)
@@ -451,7 +453,7 @@ class Probe:
             except subprocess.TimeoutExpired:
                 self._watcher.kill()
                 self._watcher.wait()
-        for meter in self.rates.values():
+        for meter in [*self.rates.values(), self.heartbeat]:
             if isinstance(meter, WatchedRates):
                 meter.close()
         shutil.rmtree(self._watcher_dir, ignore_errors=True)

@@ -5,12 +5,16 @@ The probe publishes the fuzz inputs: while it serializes an 800 MB goal (or hypo
 one) its own callbacks wait, so gaps it sees in ``joint_states`` may be its own. This process
 only listens: for each topic it appends the receive time of every message (float64, seconds on
 the system-wide monotonic clock, as ``time.monotonic()`` in the probe) to ``<dir>/<name>.f64``.
-Prints ``ready`` once subscribed. Usage: ``python rate_watcher.py --dir D [--robot-name px100]``.
+A thread also appends the time every 10 ms to ``<dir>/heartbeat.f64``: a gap there means this
+process, so likely the whole machine, was not scheduled (it tells a node's own stall from one
+of the machine). Prints ``ready`` once subscribed.
+Usage: ``python rate_watcher.py --dir D [--robot-name px100]``.
 """
 import argparse
 import os
 import struct
 import sys
+import threading
 import time
 
 #: topic (under the robot namespace) -> message type name, as (module, class)
@@ -49,6 +53,16 @@ def main(argv=None) -> int:
         # raw: the bytes are not deserialized, this process stays light
         node.create_subscription(msg_type, f'/{opts.robot_name}/{name}', recorder(f),
                                  qos_profile_sensor_data, raw=True)
+    beat = open(os.path.join(opts.dir, 'heartbeat.f64'), 'wb', buffering=0)
+    files.append(beat)
+    beating = threading.Event()
+
+    def heartbeat():
+        while not beating.wait(0.01):
+            beat.write(pack(time.monotonic()))
+
+    beater = threading.Thread(target=heartbeat, daemon=True)
+    beater.start()
     print('ready', flush=True)
     executor = make_executor()
     executor.add_node(node)
@@ -57,6 +71,8 @@ def main(argv=None) -> int:
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    beating.set()
+    beater.join(1.0)
     for f in files:
         f.close()
     node.destroy_node()

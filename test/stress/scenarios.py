@@ -94,6 +94,7 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
     else:
         out['error'] = f'no move was still running {kill_after} s after it started'
         return out
+    server_log_at_kill = len(graph.procs['trajectory_server'].output())
     t_kill = time.monotonic()
     graph.procs['sim_driver'].signal(sig)
     th.join(moving_time + 12.0)
@@ -110,6 +111,14 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
     probe.wait_for(lambda: any(d.hardware_id == key for d in probe.diagnostics), 2.0)
     diags = [d for d in list(probe.diagnostics) if d.hardware_id == key]
     out['diagnostic'] = [(level_of(d), d.message) for d in diags]
+    # evidence for a late abort: was the machine stalled (the watcher's own heartbeat), or only
+    # the server (its log says 'not scheduled for ...' with what ran longest meanwhile)?
+    t_end = t_kill + (out['abort_s'] if out['abort_s'] is not None else 10.0)
+    out['machine_stall_s'] = round(probe.heartbeat.stats(t_kill, t_end)['max_gap'], 3)
+    out['server_log_after_kill'] = [
+        line[:400] for line in
+        graph.procs['trajectory_server'].output()[server_log_at_kill:].splitlines()
+        if 'not scheduled' in line or 'ABORTED' in line][:5]
     deadline = time.monotonic() + 15.0
     while graph.procs['sim_driver'].alive() and time.monotonic() < deadline:
         time.sleep(0.05)
