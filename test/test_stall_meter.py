@@ -29,12 +29,25 @@ def test_late_check_names_the_longest_part():
                              'a setpoint tick': pytest.approx(1.995)}
     text = stall.describe()
     assert text.startswith('not scheduled for 2.00 s (checks every 0.02 s)')
-    assert text.index('a setpoint tick 1.995 s') < text.index('publishing a setpoint 1.990 s')
+    assert stall.counts == {'publishing a setpoint': 2, 'a setpoint tick': 1}
+    assert text.index('a setpoint tick 1.995 s (x1)') < \
+        text.index('publishing a setpoint 1.990 s (x2)')
     # the parts are per interval: the next, on-time interval starts empty
     m.note('a setpoint tick', 1 * MS)
     assert m.check(2020 * MS) is None
     stall = m.check(2400 * MS)
-    assert stall.longest == {} and 'no noted part ran long' in stall.describe()
+    assert stall.longest == {} and 'no noted part ran' in stall.describe()
+
+
+def test_parts_that_kept_running_are_counted():
+    """A late check after 400 short ticks: the process ran, only the check was not called."""
+    m = StallMeter(0.02, 0.25)
+    m.check(0)
+    for _ in range(400):
+        m.note('a setpoint tick', MS // 2)
+    stall = m.check(2000 * MS)
+    assert stall.counts == {'a setpoint tick': 400}
+    assert 'a setpoint tick 0.001 s (x400)' in stall.describe()
 
 
 def test_gap_at_the_threshold_is_no_stall():
