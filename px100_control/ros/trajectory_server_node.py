@@ -31,8 +31,11 @@ Goal semantics (what a client relies on):
   preempts it (CANCELED at once, the new move starting from the current setpoint and velocity).
   An invalid goal (unknown joint, NaN, out of limits, times not increasing, too fast, or no
   ``joint_states`` received yet) is ABORTED at once and nothing of it is sent; it does not
-  disturb a running goal. A stall is ABORTED: no ``joint_states`` for ``state_timeout`` (steady
-  clock, so also when a sim clock stops), or a joint farther than ``path_tolerance`` from the
+  disturb a running goal. While ``joint_states`` are older than ``hold_after`` a goal pauses: no
+  setpoints are sent and its clock stops, so it resumes where it paused when they return. A
+  stall is ABORTED: no ``joint_states`` for ``state_timeout`` (steady clock, so also when a sim
+  clock stops; a state read late because this node stalled counts from its stamp, and an
+  abort noticed late says so), or a joint farther than ``path_tolerance`` from the
   setpoints of the ``path_window`` before its measurement's stamp (the reason names the joint,
   the measured value and the setpoint; the arm is then held where it was measured).
   Re-sending the running goal's id is ignored (reported on /diagnostics); an id that has ended
@@ -42,9 +45,9 @@ Goal semantics (what a client relies on):
 - Every terminal status is published on ``/diagnostics`` (DiagnosticArray): name
   ``<robot_name>/trajectory_server``, ``hardware_id`` = the goal id, ``message`` = the reason,
   level OK (SUCCEEDED), WARN (CANCELED) or ERROR (ABORTED); it is logged too.
-- While a goal runs (until its terminal status), setpoints (all arm joints, position and
-  velocity feed-forward, stamped with their sample time) go to ``commands/joint_setpoints`` at
-  ``rate`` and, identical, to ``trajectory/feedback``. Timing follows the node clock
+- While a goal runs (until its terminal status) and is not paused, setpoints (all arm joints,
+  position and velocity feed-forward, stamped with their sample time) go to
+  ``commands/joint_setpoints`` at ``rate`` and, identical, to ``trajectory/feedback``. Timing follows the node clock
   (``use_sim_time`` honoured).
 """
 from collections import OrderedDict
@@ -63,6 +66,7 @@ from px100_control.errors import InvalidInputError
 from px100_control.ros import cdr
 from px100_control.ros.common import declare_robot_parameters, robot_name, robot_topic, spin_node
 from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
+from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -101,6 +105,8 @@ PARAMETERS = {
     'accel_time': (0.3, 'trapezoidal ramp time [s], clipped to moving_time/2'),
     'max_joint_step': (0.01, 'linear_max_step: largest joint step between setpoints [rad]'),
     'state_timeout': (1.0, 'abort a goal when joint_states stop for this long [s]'),
+    'hold_after': (0.25, 'pause a goal (no setpoints, its clock stopped) while joint_states '
+                         'are older than this [s]; it resumes where it paused'),
     'path_tolerance': (0.2, 'abort when a joint is this far from its setpoints [rad]'),
     'path_window': (0.2, 'a measurement may lag its setpoints by this much [s]'),
     'goal_tolerance': (0.002, 'success when every joint is this close to the end [rad]'),
@@ -122,6 +128,7 @@ class _Goal:
     phase: str = 'executing'  # executing | canceling
     stepped: bool = False  # linear_max_step: advance one period per setpoint sent
     ticks: int = 0
+    hold_since: Optional[int] = None  # node-clock ns when the goal paused for stale joint_states
     last_q: Optional[np.ndarray] = None
     last_qd: Optional[np.ndarray] = None
     info: dict = field(default_factory=dict)
@@ -151,6 +158,8 @@ class TrajectoryServerNode(Node):
         self._meas = np.full(self._n, np.nan)
         self._meas_steady_ns: Optional[int] = None
         self._meas_stamp_ns = 0  # header stamp of the measurement (node clock domain)
+        # a joint_states read late (this node stalled) counts from when it was stamped, not read
+        self._queue_delay = QueueDelay()
         self._js_map_names = None
         self._js_map = None
         self._active: Optional[_Goal] = None
@@ -195,7 +204,7 @@ class TrajectoryServerNode(Node):
                 return SetParametersResult(
                     successful=False,
                     reason=f"profile must be one of {', '.join(tj.PROFILES)}, got '{v}'")
-            if p.name in ('rate', 'moving_time', 'max_joint_step', 'state_timeout',
+            if p.name in ('rate', 'moving_time', 'max_joint_step', 'state_timeout', 'hold_after',
                           'path_tolerance', 'goal_tolerance', 'stop_deceleration'):
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                     return SetParametersResult(successful=False,
@@ -223,12 +232,16 @@ class TrajectoryServerNode(Node):
             for i, j in self._js_map:
                 if i < len(pos):
                     self._meas[j] = pos[i]
-            self._meas_steady_ns = self._steady.now().nanoseconds
+            steady = self._steady.now().nanoseconds
+            now = self.get_clock().now().nanoseconds
             stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-            self._meas_stamp_ns = stamp or self.get_clock().now().nanoseconds
+            # states queued while this node was stalled are as old as their stamps say
+            waited = self._queue_delay.update(steady, now - stamp) if stamp else 0
+            self._meas_steady_ns = max(self._meas_steady_ns or 0, steady - waited)
+            self._meas_stamp_ns = stamp or now
 
     def _state_age(self) -> float:
-        """Return seconds since the last joint_states (inf if none)."""
+        """Return seconds since the last joint_states was taken (read less time queued; inf: none)."""
         if self._meas_steady_ns is None:
             return math.inf
         return (self._steady.now().nanoseconds - self._meas_steady_ns) * 1e-9
@@ -435,6 +448,8 @@ class TrajectoryServerNode(Node):
             if g is None:
                 return
             now = self.get_clock().now()
+            if not self._hold_for_state(g, now.nanoseconds):
+                return
             t = (now.nanoseconds - g.t_start) * 1e-9
             if g.stepped and g.phase == 'executing':
                 # seed 001: one step per setpoint, however late the tick (never a bigger step)
@@ -478,6 +493,33 @@ class TrajectoryServerNode(Node):
                              f"joint '{self._names[j]}' did not settle: error {err[j]:.4g} rad "
                              f'> goal_tolerance {tol} rad, '
                              f'{t - g.traj.duration:.2f} s after the trajectory ended')
+
+    def _hold_for_state(self, goal: _Goal, now_ns: int) -> bool:
+        """
+        Return False (send nothing) while joint_states are older than hold_after.
+
+        A silent driver gets no setpoints: it cannot use them, and pushing into the
+        shared-memory port of a killed peer can block this node for 1 s in Fast DDS
+        (measured: a setpoint publish took 1.002 s after a sim_driver SIGKILL, in ~1 of 20
+        kills). The goal's clock stops meanwhile: when states return it resumes where it
+        paused (no jump); the watchdog aborts it after state_timeout.
+        """
+        age = self._state_age()
+        if age > float(self._param('hold_after')):
+            if goal.hold_since is None:
+                goal.hold_since = now_ns
+                self.get_logger().warning(
+                    f'goal {self._id(goal)} paused: no joint_states for {age:.2f} s '
+                    f'(hold_after {self._param("hold_after")} s), no setpoints until they '
+                    'return')
+            return False
+        if goal.hold_since is not None:
+            held = now_ns - goal.hold_since
+            goal.t_start += held
+            goal.hold_since = None
+            self.get_logger().info(f'goal {self._id(goal)} resumed after a {held * 1e-9:.2f} s '
+                                   'pause')
+        return True
 
     def _tracking_error(self, goal: _Goal, t: float, now_ns: int) -> np.ndarray:
         """

@@ -80,7 +80,8 @@ def env(ros_ctx, spinner, processes):
 def fresh(env):
     """Reset faults and parameters before a test; check the server still runs after it."""
     env.driver.reset()
-    env.set_params(profile='trapezoidal', accel_time=0.3, state_timeout=1.0, path_tolerance=0.5)
+    env.set_params(profile='trapezoidal', accel_time=0.3, state_timeout=1.0, path_tolerance=0.5,
+                   hold_after=0.25)
     yield env
     env.driver.reset()
     assert env.server.alive(), env.server.output()
@@ -332,6 +333,47 @@ def test_driver_silent_aborts_within_bound(fresh):
     assert 'joint_states' in env.client.last_diagnostic(stamp).message
 
 
+def test_silent_driver_pauses_the_goal_which_resumes_without_a_jump(fresh):
+    """
+    joint_states stop for 0.6 s mid-move: no setpoints while they are older than hold_after.
+
+    When they return the move goes on from where it paused (no step larger than the moving
+    setpoints make), ends SUCCEEDED, later by about the pause; the log says paused/resumed.
+    """
+    env = fresh
+    env.set_params(state_timeout=1.0, hold_after=0.25)
+    k0 = env.driver.count()
+    t0 = time.monotonic()
+    stamp = env.client.send(['waist'], [(3.0, [0.9])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(1.0)
+    env.driver.silent = True
+    t_silent = time.monotonic()
+    time.sleep(0.6)
+    k_mid = env.driver.count()
+    env.driver.silent = False
+    t_back = time.monotonic()
+    assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED', \
+        env.client.last_diagnostic(stamp).message
+    elapsed = time.monotonic() - t0
+    t, q, qd = env.setpoints_since(k0)
+    wall = np.array([s[0] for s in env.driver.setpoints[k0:]]) * 1e-9
+    # setpoints are stamped with the server's clock: none between the pause and the return
+    # (the first 0.25 s + a few ticks of silence may still carry setpoints)
+    offset = time.time() - time.monotonic()
+    quiet = (wall > t_silent + offset + 0.35) & (wall < t_back + offset - 0.05)
+    assert not quiet.any(), f'{int(quiet.sum())} setpoints sent while paused'
+    assert k_mid - k0 < len(q), 'no setpoints after the pause'
+    # at most 0.33 rad/s x 5 ms per setpoint; resuming at the wall-clock time would jump ~0.2 rad
+    steps = np.abs(np.diff(q[:, 0]))
+    gap = int(np.argmax(np.diff(t)))
+    assert np.diff(t)[gap] > 0.3 and steps[gap] < 0.01, (np.diff(t)[gap], steps[gap])
+    assert steps.max() < 0.01, steps.max()
+    assert elapsed >= 3.0 + 0.2, elapsed
+    out = env.server.output()
+    assert 'paused: no joint_states' in out and 'resumed after' in out, out[-2000:]
+
+
 def test_stalled_server_says_why_its_abort_came_late(fresh):
     """
     A server not scheduled for 1.5 s (SIGSTOP) says so in its late abort's reason and log.
@@ -357,6 +399,34 @@ def test_stalled_server_says_why_its_abort_came_late(fresh):
     assert 1.4 <= gap <= 4.0, msg
     assert wait_for(lambda: 'not scheduled for' in env.server.output(), 5.0), \
         env.server.output()[-2000:]
+
+
+def test_states_read_after_a_stall_count_from_their_stamps(fresh):
+    """
+    The server stalls (SIGSTOP) while the driver still publishes, then the driver dies.
+
+    The joint_states queued during the stall are read after SIGCONT: they are as old as their
+    stamps, so the abort comes right after SIGCONT (not state_timeout after it, as when their
+    reading time counted).
+    """
+    env = fresh
+    env.set_params(state_timeout=1.0)
+    stamp = env.client.send(['waist'], [(5.0, [0.9])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(0.3)
+    os.kill(env.server.pid, signal.SIGSTOP)
+    try:
+        time.sleep(0.1)
+        env.driver.silent = True
+        time.sleep(1.4)
+    finally:
+        os.kill(env.server.pid, signal.SIGCONT)
+    t_cont = time.monotonic()
+    assert env.client.wait_terminal(stamp, 5.0) == 'ABORTED'
+    after = time.monotonic() - t_cont
+    msg = env.client.last_diagnostic(stamp).message
+    assert 'joint_states' in msg, msg
+    assert after < 0.6, f'aborted {after:.2f} s after SIGCONT: {msg}'
 
 
 def test_goal_on_stale_joint_states_is_refused_then_accepted_again(fresh):

@@ -1,0 +1,53 @@
+"""QueueDelay: how long a stamped sample sat queued, whatever the clock offset (no ROS)."""
+from px100_control.tools.latency import QueueDelay
+import pytest
+
+MS = 1_000_000
+S = 1_000_000_000
+
+
+@pytest.mark.parametrize('offset', [0, 3 * S, -3 * S, 1_700_000_000 * S])
+def test_samples_read_on_time_waited_nothing_at_any_clock_offset(offset):
+    """100 Hz samples with 1 ms transport (+- 0.5 ms jitter): excess below the jitter."""
+    q = QueueDelay()
+    for k in range(500):
+        lag = offset + MS + (k % 3 - 1) * MS // 2
+        assert q.update(k * 10 * MS, lag) <= MS
+
+
+def test_samples_queued_during_a_stall_show_the_stall():
+    """The process stalls 1 s: the samples read after it waited ~1 s, the fresh ones did not."""
+    q = QueueDelay()
+    t = 0
+    for _ in range(200):
+        t += 10 * MS
+        q.update(t, 2 * S + MS)            # 2 s clock offset, 1 ms transport
+    stall_end = t + S
+    # the last 5 samples taken before the stall are read just after it
+    waited = [q.update(stall_end + i * MS, 2 * S + MS + S - i * 10 * MS) for i in range(5)]
+    assert all(0.9 * S <= w <= 1.01 * S for w in waited), waited
+    assert q.update(stall_end + 10 * MS, 2 * S + MS) == 0
+
+
+def test_the_floor_forgets_after_its_window():
+    """A small lag is remembered for window_s only: a lasting larger lag becomes the floor."""
+    q = QueueDelay(window_s=1.0)
+    q.update(0, MS)
+    assert q.update(500 * MS, 50 * MS) == 49 * MS
+    # 1.1 s later the 1 ms sample has left the window: 50 ms is the new floor
+    assert q.update(1100 * MS, 50 * MS) == 0
+
+
+def test_a_clock_jump_resets_the_floor():
+    """An excess beyond reset_after_s is a clock change: 0, and later samples measure from it."""
+    q = QueueDelay(reset_after_s=10.0)
+    q.update(0, MS)
+    assert q.update(10 * MS, 3600 * S) == 0          # publisher restarted an hour behind
+    assert q.update(20 * MS, 3600 * S + 300 * MS) == 300 * MS
+
+
+@pytest.mark.parametrize('window, reset', [(0.0, 1.0), (1.0, 0.0), (-1.0, 1.0)])
+def test_bad_settings_are_refused(window, reset):
+    """Both durations must be positive."""
+    with pytest.raises(ValueError, match='must be > 0'):
+        QueueDelay(window, reset)
