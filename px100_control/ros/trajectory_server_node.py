@@ -47,8 +47,8 @@ Goal semantics (what a client relies on):
   level OK (SUCCEEDED), WARN (CANCELED) or ERROR (ABORTED); it is logged too.
 - While a goal runs (until its terminal status) and is not paused, setpoints (all arm joints,
   position and velocity feed-forward, stamped with their sample time) go to
-  ``commands/joint_setpoints`` at ``rate`` and, identical, to ``trajectory/feedback``. Timing follows the node clock
-  (``use_sim_time`` honoured).
+  ``commands/joint_setpoints`` at ``rate`` and, identical, to ``trajectory/feedback``. Timing
+  follows the node clock (``use_sim_time`` honoured).
 """
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -241,7 +241,7 @@ class TrajectoryServerNode(Node):
             self._meas_stamp_ns = stamp or now
 
     def _state_age(self) -> float:
-        """Return seconds since the last joint_states was taken (read less time queued; inf: none)."""
+        """Return seconds since the last joint_states was stamped (inf if none yet)."""
         if self._meas_steady_ns is None:
             return math.inf
         return (self._steady.now().nanoseconds - self._meas_steady_ns) * 1e-9
