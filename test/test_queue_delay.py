@@ -38,16 +38,34 @@ def test_the_floor_forgets_after_its_window():
     assert q.update(1100 * MS, 50 * MS) == 0
 
 
-def test_a_clock_jump_resets_the_floor():
-    """An excess beyond reset_after_s is a clock change: 0, and later samples measure from it."""
-    q = QueueDelay(reset_after_s=10.0)
-    q.update(0, MS)
-    assert q.update(10 * MS, 3600 * S) == 0          # publisher restarted an hour behind
-    assert q.update(20 * MS, 3600 * S + 300 * MS) == 300 * MS
+def test_one_bad_stamp_does_not_move_the_floor():
+    """A stamp 5 s in the future or an hour in the past: no wait, and the floor stays."""
+    q = QueueDelay()
+    for k in range(100):
+        q.update(k * 10 * MS, MS)
+    assert q.update(1000 * MS, MS - 5 * S) == 0          # from the future
+    assert q.update(1010 * MS, 3600 * S) == 0            # from the distant past
+    # real samples still measure from the 1 ms floor: one queued 0.5 s shows it
+    assert q.update(1020 * MS, MS + 500 * MS) == 500 * MS
+    assert q.update(1030 * MS, MS) == 0
 
 
-@pytest.mark.parametrize('window, reset', [(0.0, 1.0), (1.0, 0.0), (-1.0, 1.0)])
-def test_bad_settings_are_refused(window, reset):
-    """Both durations must be positive."""
+def test_a_lasting_clock_change_is_adopted_after_the_window():
+    """The publisher restarts 3 s ahead: no wait meanwhile, its lag is the floor after window_s."""
+    q = QueueDelay(window_s=1.0)
+    for k in range(100):
+        q.update(k * 10 * MS, MS)
+    t = 1000 * MS
+    waits = []
+    for k in range(300):
+        waits.append(q.update(t + k * 10 * MS, MS - 3 * S))
+    assert max(waits) == 0
+    # once adopted, a sample queued 0.4 s shows its wait again
+    assert q.update(t + 3010 * MS, MS - 3 * S + 400 * MS) == 400 * MS
+
+
+@pytest.mark.parametrize('args', [(0.0, 1.0, 1.0), (1.0, 0.0, 1.0), (1.0, 1.0, -1.0)])
+def test_bad_settings_are_refused(args):
+    """Every duration must be positive."""
     with pytest.raises(ValueError, match='must be > 0'):
-        QueueDelay(window, reset)
+        QueueDelay(*args)
