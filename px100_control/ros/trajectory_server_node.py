@@ -228,10 +228,15 @@ class TrajectoryServerNode(Node):
             self._js_map_names = list(names)
             self._js_map = [(i, self._index[x]) for i, x in enumerate(names) if x in self._index]
         pos = msg.position
+        values = [(j, pos[i]) for i, j in self._js_map if i < len(pos)]
+        if not all(math.isfinite(v) for _, v in values):
+            self.get_logger().warning(
+                'joint_states with a non-finite arm position ignored (a driver fault or a '
+                'second publisher?)', throttle_duration_sec=5.0)
+            return
         with self._lock:
-            for i, j in self._js_map:
-                if i < len(pos):
-                    self._meas[j] = pos[i]
+            for j, v in values:
+                self._meas[j] = v
             steady = self._steady.now().nanoseconds
             now = self.get_clock().now().nanoseconds
             stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
@@ -585,8 +590,10 @@ class TrajectoryServerNode(Node):
         self._stalls.note('publishing feedback', time.monotonic_ns() - t1)
 
     def _hold_measured(self) -> None:
-        if not np.any(np.isnan(self._meas)):
-            self._send(self._meas.copy(), np.zeros(self._n))
+        """Send the measured position (clipped into the joint limits) as the setpoint."""
+        if np.all(np.isfinite(self._meas)):
+            self._send(np.clip(self._meas, self.model.lower, self.model.upper),
+                       np.zeros(self._n))
 
     # ------------------------------------------------------------------ status
     def _id(self, goal: _Goal) -> str:

@@ -429,6 +429,54 @@ def test_states_read_after_a_stall_count_from_their_stamps(fresh):
     assert after < 0.6, f'aborted {after:.2f} s after SIGCONT: {msg}'
 
 
+def _liar(env):
+    """Return a second joint_states publisher (a lying driver) on the client's node."""
+    from sensor_msgs.msg import JointState
+    if not hasattr(env, 'liar'):
+        env.liar = env.client.create_publisher(JointState, '/px100/joint_states', 10)
+    return env.liar, JointState
+
+
+def test_non_finite_joint_states_are_ignored(fresh):
+    """NaN and inf measurements from a second publisher change nothing: the move succeeds."""
+    env = fresh
+    pub, JointState = _liar(env)
+    stamp = env.client.send(['waist'], [(1.5, [0.5])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    for k in range(30):
+        msg = JointState(name=ARM, position=[float('nan'), float('inf'), -float('inf'), 0.0])
+        msg.header.stamp = env.client.get_clock().now().to_msg()
+        pub.publish(msg)
+        time.sleep(0.02)
+    assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED', \
+        env.client.last_diagnostic(stamp).message
+    assert wait_for(lambda: 'non-finite arm position ignored' in env.server.output(), 5.0)
+
+
+def test_out_of_limit_measurement_never_becomes_an_out_of_limit_setpoint(fresh):
+    """A lying 100 rad waist aborts the move (tracking); the held setpoint is within limits."""
+    env = fresh
+    pub, JointState = _liar(env)
+    k0 = env.driver.count()
+    stamp = env.client.send(['waist'], [(2.0, [0.5])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(0.3)
+    with env.driver.lock:
+        q = list(env.driver.q)
+    for _ in range(60):   # until a tick reads it before the real driver's next state
+        msg = JointState(name=ARM, position=[100.0] + q[1:])
+        msg.header.stamp = env.client.get_clock().now().to_msg()
+        pub.publish(msg)
+        time.sleep(0.005)
+        if env.client.statuses(stamp)[-1:] == ['ABORTED']:
+            break
+    assert env.client.wait_terminal(stamp, 10.0) == 'ABORTED'
+    assert 'tracking error' in env.client.last_diagnostic(stamp).message
+    time.sleep(0.2)
+    _, q, _ = env.setpoints_since(k0)
+    assert np.all(np.abs(q[:, 0]) <= np.pi + 1e-9), q[:, 0].max()
+
+
 def test_goal_on_stale_joint_states_is_refused_then_accepted_again(fresh):
     """A dead driver: a new goal is refused (its start is unknown); fresh states: accepted."""
     env = fresh

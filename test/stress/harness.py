@@ -380,6 +380,7 @@ class Probe:
         self._spinning.set()
         self.cond = threading.Condition()
         self.own_setpoints = set()
+        self.own_joint_states = set()
         self.violations: List[dict] = []
         self.setpoints_seen = 0
         self.joint_states_seen = 0
@@ -426,6 +427,7 @@ class Probe:
         n.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, RELIABLE)
         self.pub_setpoints = n.create_publisher(JointState, t('commands/joint_setpoints'),
                                                 RELIABLE)
+        self.pub_joint_states = n.create_publisher(JointState, t('joint_states'), RELIABLE)
         self.pub_ik = n.create_publisher(PoseStamped, t('ik/request'), RELIABLE)
         self.pub_path = n.create_publisher(PoseArray, t('ik/path_request'), RELIABLE)
         self.pub_goal = n.create_publisher(JointTrajectory, t('trajectory/goal'), RELIABLE)
@@ -470,6 +472,8 @@ class Probe:
                                     'time': time.monotonic()})
 
     def _on_joint_states(self, msg: JointState) -> None:
+        if self.own_joint_states and joint_state_key(msg) in self.own_joint_states:
+            return
         self.rates['probe/joint_states'].tick()
         problems = check_joint_message(msg, self.lim, setpoint=False)
         if problems:
@@ -588,6 +592,11 @@ class Probe:
         log = self._setpoint_log or []
         self._setpoint_log = [] if on else None
         return log
+
+    def publish_joint_state(self, msg: JointState) -> None:
+        """Publish a measurement as the probe, as if a second driver (not checked as output)."""
+        self.own_joint_states.add(joint_state_key(msg))
+        self.pub_joint_states.publish(msg)
 
     def publish_setpoint(self, msg: JointState) -> None:
         """Publish a setpoint as the probe (not checked as node output)."""

@@ -29,7 +29,7 @@ PROBE_SEC = 1_234_567
 _probe_counter = [0]
 #: reduced-form sizes per target (PX100_STRESS=full: 10,000 each)
 REDUCED = {
-    'commands/joint_setpoints': 200, 'torque_enable': 100, 'reset': 60,
+    'commands/joint_setpoints': 200, 'joint_states': 150, 'torque_enable': 100, 'reset': 60,
     'ik/request': 300, 'ik/path_request': 150, 'trajectory/goal': 100,
     'trajectory/cancel': 200, '/sim_driver/set_parameters': 80,
     '/ik_service/set_parameters': 60, '/trajectory_server/set_parameters': 60,
@@ -73,6 +73,13 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
     def send_setpoint(msg):
         probe.publish_setpoint(msg)
         return probe.wait_joint_states(2, 1.0)
+
+    def send_joint_state(msg):
+        # trajectory_server reads joint_states: a second, lying publisher must not make it send
+        # an invalid setpoint or die; nothing answers, so just let a driver sample follow
+        probe.publish_joint_state(msg)
+        probe.wait_joint_states(1, 0.5)
+        return None
 
     def send_ik(msg):
         key = stamp_text(msg.header.stamp)
@@ -151,6 +158,7 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
     targets = {
         'commands/joint_setpoints': Target(
             'commands/joint_setpoints', 'sim_driver', setpoints, send_setpoint),
+        'joint_states': Target('joint_states', 'trajectory_server', setpoints, send_joint_state),
         'torque_enable': Target('torque_enable', 'sim_driver',
                                 st.tuples(S.setbool_requests(), maybe_setpoint),
                                 with_setpoint(probe.cli_torque)),
