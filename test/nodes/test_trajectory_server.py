@@ -438,7 +438,7 @@ def _liar(env):
 
 
 def test_non_finite_joint_states_are_ignored(fresh):
-    """NaN and inf measurements from a second publisher change nothing: the move succeeds."""
+    """Measurements of NaN and inf from a second publisher change nothing: the move succeeds."""
     env = fresh
     pub, JointState = _liar(env)
     stamp = env.client.send(['waist'], [(1.5, [0.5])])
