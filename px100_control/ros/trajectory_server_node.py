@@ -96,6 +96,9 @@ STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
 #: means the node was not scheduled (logged with what ran longest meanwhile)
 WATCHDOG_PERIOD = 0.02
 STALL_WARN = 0.25
+#: the shortest hold_after [s]: a goal pauses while joint_states are older, so it must exceed
+#: the driver's publish period (20 Hz here; sim_driver publishes at 100 Hz)
+MIN_HOLD_AFTER = 0.05
 
 #: parameter -> (default, description); defaults mirror config/px100.yaml
 PARAMETERS = {
@@ -106,7 +109,8 @@ PARAMETERS = {
     'max_joint_step': (0.01, 'linear_max_step: largest joint step between setpoints [rad]'),
     'state_timeout': (1.0, 'abort a goal when joint_states stop for this long [s]'),
     'hold_after': (0.25, 'pause a goal (no setpoints, its clock stopped) while joint_states '
-                         'are older than this [s]; it resumes where it paused'),
+                         'are older than this [s]; it resumes where it paused. At least '
+                         "0.05 s and longer than the driver's publish period"),
     'path_tolerance': (0.2, 'abort when a joint is this far from its setpoints [rad]'),
     'path_window': (0.2, 'a measurement may lag its setpoints by this much [s]'),
     'goal_tolerance': (0.002, 'success when every joint is this close to the end [rad]'),
@@ -204,6 +208,11 @@ class TrajectoryServerNode(Node):
                 return SetParametersResult(
                     successful=False,
                     reason=f"profile must be one of {', '.join(tj.PROFILES)}, got '{v}'")
+            if p.name == 'hold_after' and isinstance(v, (int, float)) and v < MIN_HOLD_AFTER:
+                # shorter than the gap between two samples: every goal would stay paused
+                return SetParametersResult(
+                    successful=False, reason=f'hold_after must be >= {MIN_HOLD_AFTER} s (longer '
+                    f"than the driver's publish period), got {v!r}")
             if p.name in ('rate', 'moving_time', 'max_joint_step', 'state_timeout', 'hold_after',
                           'path_tolerance', 'goal_tolerance', 'stop_deceleration'):
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -474,7 +483,7 @@ class TrajectoryServerNode(Node):
                 j = int(np.argmax(err))
                 if err[j] > float(self._param('path_tolerance')):
                     self._active = None
-                    self._hold_measured()
+                    self._hold_measured(g)
                     lag = (now.nanoseconds - self._meas_stamp_ns) * 1e-9
                     self._finish(g, GoalStatus.STATUS_ABORTED,
                                  f"tracking error of joint '{self._names[j]}' is "
@@ -589,11 +598,22 @@ class TrajectoryServerNode(Node):
         self._stalls.note('publishing a setpoint', t1 - t0)
         self._stalls.note('publishing feedback', time.monotonic_ns() - t1)
 
-    def _hold_measured(self) -> None:
-        """Send the measured position (clipped into the joint limits) as the setpoint."""
-        if np.all(np.isfinite(self._meas)):
-            self._send(np.clip(self._meas, self.model.lower, self.model.upper),
-                       np.zeros(self._n))
+    def _hold_measured(self, goal: _Goal) -> None:
+        """
+        Hold the arm where it is measured: that position as the setpoint, at rest.
+
+        A joint measured outside its limits (a faulty or lying joint_states) holds the goal's
+        last setpoint instead: never an out-of-limit setpoint, nor a jump to the limit.
+        """
+        last = goal.last_q if goal.last_q is not None else goal.traj.sample(0.0)[0]
+        q = self._meas
+        ok = np.isfinite(q) & (q >= self.model.lower) & (q <= self.model.upper)
+        if not ok.all():
+            self.get_logger().warning(
+                'holding the last setpoint of joint(s) '
+                f'{[n for n, good in zip(self._names, ok) if not good]}: measured outside '
+                f'the limits ({self._fmt(q)})')
+        self._send(np.where(ok, q, last), np.zeros(self._n))
 
     # ------------------------------------------------------------------ status
     def _id(self, goal: _Goal) -> str:

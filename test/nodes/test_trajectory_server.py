@@ -374,6 +374,22 @@ def test_silent_driver_pauses_the_goal_which_resumes_without_a_jump(fresh):
     assert 'paused: no joint_states' in out and 'resumed after' in out, out[-2000:]
 
 
+@pytest.mark.parametrize('value, words', [(0.01, '>= 0.05'), (-1.0, '>= 0.05'),
+                                          (float('nan'), 'must be > 0'),
+                                          (float('inf'), 'must be > 0')])
+def test_hold_after_too_short_or_invalid_is_refused(fresh, value, words):
+    """A hold_after shorter than the gap between samples would pause every goal for good."""
+    env = fresh
+    fut = env.params.set_parameters([Parameter('hold_after', value=value)])
+    assert wait_for(fut.done, 10.0)
+    res = fut.result().results[0]
+    assert not res.successful and words in res.reason, res.reason
+    target = env.position()
+    target[0] += 0.1 if target[0] < 1.0 else -0.1
+    stamp, status = env.move(list(target), 1.0)
+    assert status == 'SUCCEEDED', env.client.last_diagnostic(stamp).message
+
+
 def test_stalled_server_says_why_its_abort_came_late(fresh):
     """
     A server not scheduled for 1.5 s (SIGSTOP) says so in its late abort's reason and log.
@@ -453,11 +469,12 @@ def test_non_finite_joint_states_are_ignored(fresh):
     assert wait_for(lambda: 'non-finite arm position ignored' in env.server.output(), 5.0)
 
 
-def test_out_of_limit_measurement_never_becomes_an_out_of_limit_setpoint(fresh):
-    """A lying 100 rad waist aborts the move (tracking); the held setpoint is within limits."""
+def test_out_of_limit_measurement_never_becomes_a_setpoint(fresh):
+    """A lying 100 rad waist aborts the move (tracking); the waist holds its last setpoint."""
     env = fresh
     pub, JointState = _liar(env)
     k0 = env.driver.count()
+    start = env.position()[0]
     stamp = env.client.send(['waist'], [(2.0, [0.5])])
     assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
     time.sleep(0.3)
@@ -474,7 +491,10 @@ def test_out_of_limit_measurement_never_becomes_an_out_of_limit_setpoint(fresh):
     assert 'tracking error' in env.client.last_diagnostic(stamp).message
     time.sleep(0.2)
     _, q, _ = env.setpoints_since(k0)
-    assert np.all(np.abs(q[:, 0]) <= np.pi + 1e-9), q[:, 0].max()
+    # the held setpoint: neither 100 rad nor the limit (a 3 rad jump), but where the move was
+    lo, hi = min(start, 0.5) - 0.01, max(start, 0.5) + 0.01
+    assert np.all((q[:, 0] >= lo) & (q[:, 0] <= hi)), (lo, hi, q[:, 0].min(), q[:, 0].max())
+    assert wait_for(lambda: 'holding the last setpoint' in env.server.output(), 5.0)
 
 
 def test_goal_on_stale_joint_states_is_refused_then_accepted_again(fresh):
