@@ -106,6 +106,14 @@ def _max_step_ok(t, q, qd, slack=1.5, floor=1e-3):
     return worst
 
 
+def _waist_move_running(env, moving_time: float):
+    """Send a waist move to 0.9 rad and return its stamp once it has run for 0.3 s."""
+    stamp = env.client.send(['waist'], [(moving_time, [0.9])])
+    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
+    time.sleep(0.3)
+    return stamp
+
+
 def test_one_point_move_succeeds_on_time_and_smoothly(fresh):
     """A one-point goal moves there in moving_time: statuses in order, no jump, on target."""
     env = fresh
@@ -323,9 +331,7 @@ def test_driver_silent_aborts_within_bound(fresh):
     """No joint_states during a goal: ABORTED naming the driver, within state_timeout + 1 s."""
     env = fresh
     env.set_params(state_timeout=0.5)
-    stamp = env.client.send(['waist'], [(3.0, [0.9])])
-    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
-    time.sleep(0.3)
+    stamp = _waist_move_running(env, 3.0)
     env.driver.silent = True
     t0 = time.monotonic()
     assert env.client.wait_terminal(stamp, 5.0) == 'ABORTED'
@@ -399,9 +405,7 @@ def test_stalled_server_says_why_its_abort_came_late(fresh):
     """
     env = fresh
     env.set_params(state_timeout=0.5)
-    stamp = env.client.send(['waist'], [(4.0, [0.9])])
-    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
-    time.sleep(0.3)
+    stamp = _waist_move_running(env, 4.0)
     env.driver.silent = True
     os.kill(env.server.pid, signal.SIGSTOP)
     try:
@@ -427,9 +431,7 @@ def test_states_read_after_a_stall_count_from_their_stamps(fresh):
     """
     env = fresh
     env.set_params(state_timeout=1.0)
-    stamp = env.client.send(['waist'], [(5.0, [0.9])])
-    assert env.client.wait_status(stamp, 'EXECUTING', 10.0)
-    time.sleep(0.3)
+    stamp = _waist_move_running(env, 5.0)
     os.kill(env.server.pid, signal.SIGSTOP)
     try:
         time.sleep(0.1)
