@@ -37,7 +37,9 @@ Goal semantics (what a client relies on):
   clock stops; a state read late because this node stalled counts from its stamp, and an
   abort noticed late says so), or a joint farther than ``path_tolerance`` from the
   setpoints of the ``path_window`` before its measurement's stamp (the reason names the joint,
-  the measured value and the setpoint; the arm is then held where it was measured).
+  the measured value and the setpoint; the arm is then held where it was measured, a joint
+  measured outside its limits at its last setpoint). ``joint_states`` with a non-finite arm
+  position are ignored (logged).
   Re-sending the running goal's id is ignored (reported on /diagnostics); an id that has ended
   may be reused. Names and array lengths are checked on the serialized goal before it is
   deserialized (a goal of 800 MB of wrongly sized arrays is refused in tens of ms); bytes that

@@ -455,8 +455,8 @@ def _liar(env):
     return env.liar, JointState
 
 
-def test_non_finite_joint_states_are_ignored(fresh):
-    """Measurements of NaN and inf from a second publisher change nothing: the move succeeds."""
+def test_non_finite_and_unknown_joint_states_are_ignored(fresh):
+    """NaN, inf and unknown joint names from a second publisher change nothing: it succeeds."""
     env = fresh
     pub, JointState = _liar(env)
     stamp = env.client.send(['waist'], [(1.5, [0.5])])
@@ -465,6 +465,7 @@ def test_non_finite_joint_states_are_ignored(fresh):
         msg = JointState(name=ARM, position=[float('nan'), float('inf'), -float('inf'), 0.0])
         msg.header.stamp = env.client.get_clock().now().to_msg()
         pub.publish(msg)
+        pub.publish(JointState(name=['bogus', 'Waist'], position=[50.0, -50.0]))
         time.sleep(0.02)
     assert env.client.wait_terminal(stamp, 10.0) == 'SUCCEEDED', \
         env.client.last_diagnostic(stamp).message
