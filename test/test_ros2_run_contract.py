@@ -5,7 +5,7 @@ from px100_control.tools.processes import executable_path, NodeProcess
 import pytest
 import yaml
 
-# Every executable of shared/reference/ros_interfaces.md.
+# Every executable of docs/ros_interfaces.md.
 CONTRACT_EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'bringup', 'record',
                         'replay', 'inspect']
 

@@ -2,7 +2,7 @@
 Message <-> numpy conversions shared by every node and the client.
 
 Poses are (4, 4) transforms in meters; stamps identify requests and goals (the id protocol of
-shared/reference/ros_interfaces.md): ``stamp_id`` is ``'sec.nanosec'`` and ``stamp_uuid`` a
+docs/ros_interfaces.md): ``stamp_id`` is ``'sec.nanosec'`` and ``stamp_uuid`` a
 deterministic UUID derived from the stamp (for action_msgs GoalInfo).
 """
 from typing import Iterable, Tuple

@@ -1,7 +1,7 @@
 """
 ik_service: inverse kinematics on request, one reply per request, matched by stamp.
 
-Topics (shared/reference/ros_interfaces.md, relative to ``/<robot_name>``):
+Topics (docs/ros_interfaces.md, relative to ``/<robot_name>``):
 
 - ``ik/request`` (geometry_msgs/PoseStamped): ``header.stamp`` is the request id, ``frame_id``
   empty or ``<robot_name>/base_link`` (``base_link`` is accepted too). An all-zero quaternion

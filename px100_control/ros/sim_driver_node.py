@@ -2,7 +2,7 @@
 sim_driver: the simulated joint-state driver (joint dynamics + one PID loop per joint).
 
 A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
-(shared/reference/ros_interfaces.md, sim_driver section). Topics under ``/<robot_name>``:
+(docs/ros_interfaces.md, sim_driver section). Topics under ``/<robot_name>``:
 
 - pub ``joint_states`` (sensor_msgs/JointState, ``publish_rate``): arm joints, gripper,
   left_finger, right_finger; position, velocity, effort (N*m; fingers m, m/s, N);

@@ -1,7 +1,7 @@
 """
 trajectory_server: action-style joint trajectory execution over standard messages.
 
-Topics and services are those of shared/reference/ros_interfaces.md, relative to
+Topics and services are those of docs/ros_interfaces.md, relative to
 ``/<robot_name>``; the math lives in :mod:`px100_control.control.trajectory`.
 
 Goal semantics (what a client relies on):
