@@ -536,7 +536,7 @@ class InterbotixRobotXSCore:
 
     def set_remote_parameters(self, node: str, values: dict, timeout: float = 2.0) -> str:
         """
-        Set parameters of another node (e.g. ``'/sim_driver'``) through its set_parameters.
+        Set parameters of another node (e.g. ``'/px100/sim_driver'``) through its set_parameters.
 
         px100_control extension. :return: '' on success, else the reason in words
         """

@@ -9,7 +9,7 @@ robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to
 import sys
 from typing import List
 
-from px100_control.ros.common import make_executor, parse_cli
+from px100_control.ros.common import parse_cli, run_nodes
 
 
 def create_nodes(**node_kwargs) -> List:
@@ -29,28 +29,10 @@ def create_nodes(**node_kwargs) -> List:
 
 
 def main(args=None) -> int:
-    """Run the three nodes until SIGINT (``ros2 run px100_control bringup``)."""
-    import rclpy
-    from rclpy.executors import ExternalShutdownException
-
+    """Run the three nodes until SIGINT/SIGTERM (``ros2 run px100_control bringup``)."""
     _, argv = parse_cli('Run sim_driver, ik_service and trajectory_server of px100_control in '
                         'one process.', args)
-    rclpy.init(args=argv)
-    nodes = []
-    try:
-        nodes = create_nodes()
-        executor = make_executor()
-        for node in nodes:
-            executor.add_node(node)
-        while rclpy.ok():       # not spin(): see common.spin_node
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_nodes(create_nodes, argv)
 
 
 if __name__ == '__main__':

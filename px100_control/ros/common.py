@@ -1,12 +1,17 @@
 """
-What every px100_control node shares: the common parameters, topic naming and QoS.
+What every px100_control node shares: robot namespace, common parameters, QoS, clean shutdown.
 
-Every node declares ``robot_model`` (default ``px100``: which robot description to load) and
-``robot_name`` (default ``px100``: the namespace of its topics, as in the Interbotix stack).
-Topic names are ``/<robot_name>/<name>``; an empty robot_name makes them relative, so
-``--ros-args -r __ns:=/x`` places them.
+Every node lives in the robot's namespace and uses relative names, as Interbotix and ROS 2
+drivers do (``/px100/sim_driver`` publishes ``/px100/joint_states``). The namespace is the
+node's ROS namespace (``-r __ns:=/other``, launch's ``namespace``); a node started without one
+takes ``/<robot_name>`` (parameter, default ``px100``), and ``robot_name`` defaults to the
+namespace. So ``-r __ns:=/other`` moves every topic, service and parameter, relative remaps
+(``-r joint_states:=js``) apply, and two robots differ only by namespace. ``robot_name`` also
+prefixes the tf frames (``<robot_name>/base_link``); ``robot_name:=''`` with no namespace keeps
+the node in ``/`` with unprefixed frames.
 """
 import argparse
+import signal
 from typing import List, Optional, Sequence
 
 from px100_control.models.registry import load_robot
@@ -19,10 +24,53 @@ LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                          reliability=ReliabilityPolicy.RELIABLE)
 
 
+#: robot_name (and namespace) of a node started with neither
+DEFAULT_ROBOT_NAME = 'px100'
+
+
+def _override(parameter_overrides, name: str):
+    for p in parameter_overrides or ():
+        if getattr(p, 'name', None) == name:
+            return p.value
+    return None
+
+
+def robot_node_kwargs(node_name: str, node_kwargs: dict) -> dict:
+    """
+    Return ``node_kwargs`` for ``Node.__init__`` with the robot namespace as the default.
+
+    A ``namespace`` given by the caller is kept; otherwise the namespace is ``/<robot_name>``,
+    robot_name taken from ``parameter_overrides``, else from the command line and params files
+    as the node will see them (read through a short-lived probe node of the same name, without
+    parameter services or rosout), else ``px100``. A ``__ns`` remap wins over all of this (rcl
+    applies it over the namespace argument).
+    """
+    kwargs = dict(node_kwargs)
+    if kwargs.get('namespace'):
+        return kwargs
+    name = _override(kwargs.get('parameter_overrides'), 'robot_name')
+    if name is None:
+        probe = Node(node_name, context=kwargs.get('context'), cli_args=kwargs.get('cli_args'),
+                     use_global_arguments=kwargs.get('use_global_arguments', True),
+                     enable_rosout=False, start_parameter_services=False,
+                     allow_undeclared_parameters=True,
+                     automatically_declare_parameters_from_overrides=True)
+        try:
+            if probe.get_namespace() != '/':    # a __ns remap: it places the node
+                return kwargs
+            if probe.has_parameter('robot_name'):
+                name = probe.get_parameter('robot_name').value
+        finally:
+            probe.destroy_node()
+    name = DEFAULT_ROBOT_NAME if name is None else str(name).strip('/')
+    kwargs['namespace'] = f'/{name}' if name else ''
+    return kwargs
+
+
 def declare_robot_parameters(node: Node) -> RobotModel:
-    """Declare robot_model/robot_name on the node and return the loaded RobotModel."""
+    """Declare robot_model/robot_name (default: the namespace) and return the RobotModel."""
     model_name = node.declare_parameter('robot_model', 'px100').value
-    node.declare_parameter('robot_name', 'px100')
+    node.declare_parameter('robot_name', node.get_namespace().strip('/'))
     return load_robot(model_name)
 
 
@@ -32,9 +80,13 @@ def robot_name(node: Node) -> str:
 
 
 def robot_topic(node: Node, name: str) -> str:
-    """Return ``/<robot_name>/<name>``, or ``name`` relative when robot_name is empty."""
-    ns = robot_name(node)
-    return f'/{ns}/{name}' if ns else name
+    """
+    Return the name to create a topic or service ``name`` of the robot with.
+
+    Relative (``name`` itself), so it resolves in the node's namespace (the robot namespace)
+    and remaps apply; an absolute ``/x`` or private ``~/x`` name is returned unchanged.
+    """
+    return name
 
 
 def frame_id(node: Node, frame: str) -> str:
@@ -104,30 +156,122 @@ def make_executor(context=None, kind: Optional[str] = None):
     return executors.MultiThreadedExecutor(context=context)
 
 
-def spin_node(node_factory, args=None, description: str = '', add_arguments=None) -> int:
-    """
-    Run one node the Jazzy way: init, spin until SIGINT/shutdown, destroy, try_shutdown.
+#: signals received since :func:`install_stop_signals` (SIGINT / SIGTERM numbers)
+_STOP_SIGNALS: List[int] = []
 
-    :param node_factory: callable(options) -> Node; it spins in :func:`make_executor`'s executor
+
+def _on_stop_signal(signum, frame) -> None:
+    _STOP_SIGNALS.append(signum)
+
+
+def install_stop_signals() -> None:
+    """
+    Make SIGINT and SIGTERM stop a node's main loop without raising anywhere else.
+
+    Call in the main thread before ``rclpy.init``. rclpy's own handlers (installed by init)
+    shut the context down and then chain to these Python handlers, which only note the signal
+    (:func:`stop_requested`): Python's default SIGINT handler would raise KeyboardInterrupt at
+    an arbitrary point, e.g. inside a callback that rclpy's C++ EventsExecutor or a service's
+    ``__exit__`` runs, where pybind11 turns it into std::terminate (SIGABRT). After
+    ``rclpy.try_shutdown`` uninstalls rclpy's handlers, a second SIGINT (``ros2 launch`` sends
+    one to the process group and one of its own) or SIGTERM reaches these handlers only, so
+    the node's teardown (closing a bag, destroying entities) runs to its end.
+    """
+    del _STOP_SIGNALS[:]
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _on_stop_signal)
+
+
+def ignore_further_interrupts() -> None:
+    """
+    After a node's teardown: SIGINT is ignored while the interpreter finalises.
+
+    Python's finalisation puts handlers set from Python back to SIG_DFL, so a second Ctrl-C
+    arriving then would kill the process (exit -2) after a clean teardown; SIG_IGN survives
+    it. SIGTERM keeps its default, so a launcher escalating to SIGTERM still ends a process
+    whose finalisation hangs.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def stop_requested() -> bool:
+    """Return True once SIGINT or SIGTERM arrived (after :func:`install_stop_signals`)."""
+    return bool(_STOP_SIGNALS)
+
+
+def keep_spinning(context=None) -> bool:
+    """Return True while the context is up and no stop signal arrived."""
+    import rclpy
+    return rclpy.ok(context=context) and not _STOP_SIGNALS
+
+
+def shutting_down(context=None) -> bool:
+    """Return True when an exception is explained by a stop signal or a shut-down context."""
+    import rclpy
+    return bool(_STOP_SIGNALS) or not rclpy.ok(context=context)
+
+
+def shutdown_executor(executor) -> None:
+    """Shut an executor down (wait for running callbacks) before its nodes are destroyed."""
+    if executor is None:
+        return
+    try:
+        executor.shutdown(timeout_sec=2.0)
+    except Exception:   # noqa: BLE001 -- teardown goes on: nodes and context still get freed
+        pass
+
+
+def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> int:
+    """
+    Init rclpy, build nodes, spin them until SIGINT/SIGTERM/shutdown or ``done()``, tear down.
+
+    :param build: callable() -> list of nodes (called after ``rclpy.init``)
+    :param argv: full argv for ``rclpy.init`` (ROS arguments included)
+    :param executor_kind: :func:`make_executor` kind (None: env ``PX100_EXECUTOR`` / events)
+    :param done: optional callable(nodes) -> bool, True to stop spinning
+    :return: 0 (a stop signal during construction is not an error; other errors propagate)
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
-    options, argv = parse_cli(description, args, add_arguments)
+    install_stop_signals()
     rclpy.init(args=argv)
-    node = None
+    nodes: List[Node] = []
+    executor = None
     try:
-        node = node_factory(options)
-        executor = make_executor()
-        executor.add_node(node)
+        try:
+            nodes = list(build())
+        except Exception:
+            if shutting_down():
+                return 0
+            raise
+        executor = make_executor(kind=executor_kind)
+        for node in nodes:
+            executor.add_node(node)
         # spin_once in a loop, not spin(): rclpy 7.1's EventsExecutor.spin() does not return
         # when SIGINT shuts the context down
-        while rclpy.ok():
+        while keep_spinning() and not (done is not None and done(nodes)):
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if not shutting_down():
+            raise
     finally:
-        if node is not None:
+        shutdown_executor(executor)
+        for node in reversed(nodes):
             node.destroy_node()
         rclpy.try_shutdown()
+        ignore_further_interrupts()
     return 0
+
+
+def spin_node(node_factory, args=None, description: str = '', add_arguments=None) -> int:
+    """
+    Run one node the Jazzy way: init, spin until SIGINT/SIGTERM/shutdown, destroy, shutdown.
+
+    :param node_factory: callable(options) -> Node; it spins in :func:`make_executor`'s executor
+    """
+    options, argv = parse_cli(description, args, add_arguments)
+    return run_nodes(lambda: [node_factory(options)], argv)

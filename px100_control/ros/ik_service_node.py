@@ -56,7 +56,7 @@ from px100_control.kinematics.solve import (METHODS, scalar_pitch_solver, solve_
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
 from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
-                                      robot_topic, spin_node)
+                                      robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
@@ -128,7 +128,7 @@ class IkServiceNode(Node):
     """Answer ik/request and ik/path_request with the IK of the robot model."""
 
     def __init__(self, **node_kwargs):
-        super().__init__(NODE_NAME, **node_kwargs)
+        super().__init__(NODE_NAME, **robot_node_kwargs(NODE_NAME, node_kwargs))
         self.model = declare_robot_parameters(self)
         for name, (default, _) in PARAMETERS.items():
             if name == 'nominal_pose':

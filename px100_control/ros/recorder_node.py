@@ -3,13 +3,17 @@ Record topics to a rosbag2-compatible MCAP bag: ``ros2 run px100_control record`
 
 Command line (the options of ``ros2 bag record``, plus stop conditions)::
 
-    record [TOPIC ...] [-a/--all] [-o/--output DIR] [--duration S] [--max-messages N]
-           [--idle-timeout S] [--no-tf] [--tf-rate HZ] [--compression zstd|lz4|none]
-           [--flush-period S] [--ros-args -p robot_name:=px100 -p robot_model:=px100]
+    record [TOPIC ...] [-a/--all] [--robot-only] [-o/--output DIR] [--duration S]
+           [--max-messages N] [--idle-timeout S] [--no-tf] [--tf-rate HZ]
+           [--compression zstd|lz4|none] [--flush-period S]
+           [--ros-args -r __ns:=/px100 -p robot_name:=px100 -p robot_model:=px100]
 
-Topics without a leading ``/`` are taken under ``/<robot_name>/`` (``joint_states`` is
-``/px100/joint_states``). With no topic (or ``-a``) it records every topic under
-``/<robot_name>/`` plus ``/diagnostics``, and keeps scanning the graph for new ones. Messages
+The node ``recorder`` lives in the robot namespace (``/px100`` by default, see
+:mod:`px100_control.ros.common`); topics without a leading ``/`` resolve in it
+(``joint_states`` is ``/px100/joint_states``). ``-a`` records every topic of the graph, as
+``ros2 bag record -a`` (hidden ``_`` topics excepted); with no topic, or with
+``--robot-only``, it records the topics of the robot namespace plus ``/diagnostics``. Either
+way it keeps scanning the graph for new topics. Messages
 are recorded as the exact bytes received (raw subscriptions, no deserialisation) with the QoS
 of their publishers (transient local for ``robot_description`` and ``trajectory/status``). From
 ``joint_states`` it also writes ``/tf`` (tf2_msgs/msg/TFMessage through the URDF: the recorded
@@ -25,6 +29,7 @@ Python API (the client and the demos record their runs with it)::
 
     with Recorder('/tmp/my_run', robot_name='px100'):      # all topics of /px100 + /diagnostics
         ...                                                 # drive the robot
+    # Recorder(out, all_topics=True): every topic of the graph
     # or: rec = Recorder(out, topics=['joint_states']).start(); ...; rec.stop()
 
     stop = record_in_process(node.context, '/tmp/my_run')  # on an existing rclpy context
@@ -46,7 +51,10 @@ from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
-from px100_control.ros.common import BAG_EXECUTOR, make_executor, parse_cli, robot_name
+from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
+                                      install_stop_signals, keep_spinning,
+                                      make_executor, parse_cli, robot_name, robot_node_kwargs,
+                                      shutdown_executor, shutting_down)
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -122,8 +130,12 @@ class RecorderNode(Node):
     Node 'recorder': subscribes raw to the selected topics and writes them to a bag.
 
     :param output: bag directory (must not exist or be empty); default rosbag2_<date>
-    :param topics: topics to record (relative names under /<robot_name>/); None = all
-    :param all_topics: record every topic of /<robot_name>/ plus /diagnostics
+    :param topics: topics to record (relative names under the node's namespace, the robot's);
+        None = the robot's view (below)
+    :param all_topics: record every topic of the graph (hidden ``_x`` topics excepted), as
+        ``ros2 bag record -a``; also the default when no topic is given
+    :param robot_only: with all_topics, only the topics of the robot's namespace plus
+        ``/diagnostics`` (None: True when neither topics nor all_topics were given)
     :param duration: stop after this many seconds [s] (None: until stopped)
     :param max_messages: stop after this many recorded messages (None: no limit)
     :param idle_timeout: stop when nothing arrived for this long [s] after the first message
@@ -138,16 +150,17 @@ class RecorderNode(Node):
     """
 
     def __init__(self, output: Optional[str] = None, topics: Optional[Sequence[str]] = None,
-                 all_topics: Optional[bool] = None, duration: Optional[float] = None,
+                 all_topics: Optional[bool] = None, robot_only: Optional[bool] = None,
+                 duration: Optional[float] = None,
                  max_messages: Optional[int] = None, idle_timeout: Optional[float] = None,
                  write_tf: bool = True, tf_rate: float = 50.0, write_description: bool = True,
                  compression: str = 'zstd', flush_period: float = 1.0,
                  rescan_period: float = 0.5, **node_kwargs):
-        super().__init__('recorder', **node_kwargs)
+        super().__init__('recorder', **robot_node_kwargs('recorder', node_kwargs))
         # the robot_model/robot_name parameters of declare_robot_parameters(), but the model
         # (URDF parsing, slow to import) is loaded in the background: recording starts at once
         model_name = str(self.declare_parameter('robot_model', 'px100').value)
-        self.declare_parameter('robot_name', 'px100')
+        self.declare_parameter('robot_name', self.get_namespace().strip('/'))
         read_robot_file(model_name)  # fast check: raises UnknownRobotError for a bad name
         self.model_name = model_name
         self.robot_name = robot_name(self)
@@ -158,7 +171,10 @@ class RecorderNode(Node):
         if max_messages is not None and int(max_messages) <= 0:
             raise BagError(f'max_messages must be > 0, got {max_messages!r}')
         self.output = os.path.abspath(output) if output else default_output_dir()
-        explicit = [resolve_topic(t, self.robot_name) for t in (topics or ())]
+        #: the robot's namespace: relative topics resolve in it ('/' for none)
+        self.namespace = self.get_namespace()
+        explicit = [resolve_topic(t, self.namespace) for t in (topics or ())]
+        self.robot_only = (not all_topics) if robot_only is None else bool(robot_only)
         self.all_topics = bool(all_topics) or not explicit
         self.wanted = set(explicit)
         self.duration = duration
@@ -167,7 +183,7 @@ class RecorderNode(Node):
         self.write_tf = bool(write_tf)
         self.tf_period_ns = int(1e9 / float(tf_rate))
         self.write_description = bool(write_description)
-        ns = f'/{self.robot_name}/' if self.robot_name else '/'
+        ns = self.namespace.rstrip('/') + '/'
         self.js_topic = ns + 'joint_states'
         self.description_topic = ns + 'robot_description'
         self._subs: Dict[str, object] = {}
@@ -201,8 +217,8 @@ class RecorderNode(Node):
                 min(0.1, max(0.02, flush_period / 4)), self._housekeeping)
             self.get_logger().info(
                 f'recording to {self.output}: '
-                + ('all topics of ' + ns + ' and /diagnostics' if self.all_topics else
-                   ', '.join(sorted(self.wanted)))
+                + (('all topics of ' + ns + ' and /diagnostics' if self.robot_only
+                    else 'all topics') if self.all_topics else ', '.join(sorted(self.wanted)))
                 + (f' (for {duration:g} s)' if duration else ''))
             self.scan_graph()
         except BaseException:
@@ -234,8 +250,10 @@ class RecorderNode(Node):
             return False
         if self.write_tf and topic in (TF_TOPIC, '/tf_static'):
             return False
-        prefix = f'/{self.robot_name}/' if self.robot_name else '/'
-        return topic.startswith(prefix) or topic == '/diagnostics'
+        if self.robot_only:
+            prefix = self.namespace.rstrip('/') + '/'
+            return topic.startswith(prefix) or topic == '/diagnostics'
+        return not any(part.startswith('_') for part in topic.split('/'))
 
     def scan_graph(self) -> None:
         """Subscribe to every selected topic that has a publisher and is not recorded yet."""
@@ -505,8 +523,9 @@ class Recorder:
 
     :param output_dir: bag directory to create
     :param topics: topics to record (None: all of /<robot_name>/ and /diagnostics)
-    :param all_topics: also record every topic of the namespace when topics are given
-    :param robot_name: namespace of the robot's topics
+    :param all_topics: record every topic of the graph (with topics: in addition to them)
+    :param robot_only: with all_topics, only the robot's namespace and /diagnostics
+    :param robot_name: namespace of the robot's topics (and the recorder node)
     :param robot_model: robot model (URDF for /tf)
     :param context: an initialised rclpy Context to join (default: a private one)
     :param options: further RecorderNode options (duration, max_messages, write_tf, ...)
@@ -514,10 +533,13 @@ class Recorder:
 
     def __init__(self, output_dir: str, topics: Optional[Sequence[str]] = None,
                  all_topics: bool = False, robot_name: str = 'px100',
-                 robot_model: str = 'px100', context=None, **options):
+                 robot_model: str = 'px100', context=None, robot_only: Optional[bool] = None,
+                 **options):
         self.output_dir = os.path.abspath(output_dir)
         self._args = dict(output=self.output_dir, topics=topics,
-                          all_topics=all_topics or not topics, **options)
+                          all_topics=all_topics or not topics,
+                          robot_only=(not all_topics) if robot_only is None else robot_only,
+                          **options)
         self._params = [rclpy.parameter.Parameter('robot_name', value=robot_name),
                         rclpy.parameter.Parameter('robot_model', value=robot_model)]
         self._given_context = context
@@ -607,10 +629,14 @@ def record_in_process(context, output_dir: str, topics: Optional[Sequence[str]] 
 
 def _add_arguments(parser) -> None:
     parser.add_argument('topics', nargs='*', metavar='TOPIC',
-                        help='topics to record (relative names are under /<robot_name>/)')
+                        help='topics to record (relative names are under the robot namespace, '
+                             '/<robot_name>/)')
     parser.add_argument('-a', '--all', action='store_true',
-                        help='record every topic of /<robot_name>/ and /diagnostics '
-                             '(the default when no topic is given)')
+                        help='record every topic of the graph, as ros2 bag record -a '
+                             '(hidden _topics excepted)')
+    parser.add_argument('--robot-only', action='store_true', default=None,
+                        help='only the topics of the robot namespace and /diagnostics (the '
+                             'default when neither TOPIC nor -a is given)')
     parser.add_argument('-o', '--output', default=None,
                         help='bag directory to create (default rosbag2_<date>-<time>)')
     parser.add_argument('--duration', type=float, default=None,
@@ -638,18 +664,21 @@ def main(args=None) -> int:
     from rclpy.executors import ExternalShutdownException
     options, argv = parse_cli('Record topics to a rosbag2-compatible MCAP bag.', args,
                               _add_arguments)
+    install_stop_signals()
     rclpy.init(args=argv)
     node = None
+    executor = None
     try:
         node = RecorderNode(
             output=options.output, topics=options.topics, all_topics=options.all,
+            robot_only=options.robot_only,
             duration=options.duration, max_messages=options.max_messages,
             idle_timeout=options.idle_timeout, write_tf=not options.no_tf,
             tf_rate=options.tf_rate, write_description=not options.no_robot_description,
             compression=options.compression, flush_period=options.flush_period)
         executor = make_executor(kind=BAG_EXECUTOR)
         executor.add_node(node)
-        while rclpy.ok() and not node.closed.is_set():
+        while keep_spinning() and not node.closed.is_set():
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
@@ -658,16 +687,18 @@ def main(args=None) -> int:
         rclpy.try_shutdown()
         return 1
     except Exception:
-        if rclpy.ok():
+        if not shutting_down():
             raise
         # SIGINT/SIGTERM shut the context down while the node was being built: not an error
     finally:
+        shutdown_executor(executor)
         if node is not None:
             node.finish()
             print(f'record: {node.bag.message_count} messages in {node.output}'
                   + (f' ({node.stop_reason})' if node.stop_reason else ''), file=sys.stderr)
             node.destroy_node()
         rclpy.try_shutdown()
+        ignore_further_interrupts()
     return 0
 
 

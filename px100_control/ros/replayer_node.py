@@ -26,7 +26,10 @@ from px100_control.bag.reader import BagReader
 from px100_control.bag.replay import parse_remaps, ReplaySchedule, resolve_topic
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
-from px100_control.ros.common import BAG_EXECUTOR, make_executor, parse_cli, robot_name
+from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
+                                      install_stop_signals, keep_spinning,
+                                      make_executor, parse_cli, robot_node_kwargs,
+                                      shutdown_executor, shutting_down)
 from px100_control.ros.recorder_node import message_class
 import rclpy
 from rclpy.node import Node
@@ -71,11 +74,13 @@ class ReplayerNode(Node):
                  start_offset: float = 0.0, delay: float = 0.0,
                  wait_for_subscribers: float = 0.0, min_subscribers: int = 1,
                  progress: bool = True, **node_kwargs):
-        super().__init__('replayer', **node_kwargs)
+        super().__init__('replayer', **robot_node_kwargs('replayer', node_kwargs))
         # the robot_model/robot_name parameters of every node (the model itself is not needed)
         read_robot_file(str(self.declare_parameter('robot_model', 'px100').value))
-        self.declare_parameter('robot_name', 'px100')
-        ns = robot_name(self)
+        self.declare_parameter('robot_name', self.get_namespace().strip('/'))
+        # the bag's topics keep their recorded (absolute) names; relative --topics / --remap
+        # names resolve in the node's namespace, the robot's
+        ns = self.get_namespace()
         for what, value in (('delay', delay), ('wait_for_subscribers', wait_for_subscribers)):
             if not (float(value) >= 0 and float(value) < float('inf')):
                 raise BagError(f'{what} must be a number >= 0, got {value!r}')
@@ -312,8 +317,10 @@ def main(args=None) -> int:
     options, argv = parse_cli('Publish a recorded bag into the ROS graph with its timing.',
                               argv, _add_arguments)
     options.remap = remaps
+    install_stop_signals()
     rclpy.init(args=argv)
     node = None
+    executor = None
     status = 0
     try:
         node = ReplayerNode(options.bag, rate=options.rate, loop=options.loop,
@@ -325,7 +332,7 @@ def main(args=None) -> int:
         node.start()
         executor = make_executor(kind=BAG_EXECUTOR)
         executor.add_node(node)
-        while rclpy.ok() and not node.done.is_set():
+        while keep_spinning() and not node.done.is_set():
             executor.spin_once(timeout_sec=0.1)
         if node.error:
             status = 1
@@ -334,10 +341,15 @@ def main(args=None) -> int:
     except Px100Error as exc:  # BagError and a bad robot_model
         print(f'replay: error: {exc}', file=sys.stderr)
         status = 1
+    except Exception:
+        if not shutting_down():
+            raise
     finally:
+        shutdown_executor(executor)
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        ignore_further_interrupts()
     return status
 
 

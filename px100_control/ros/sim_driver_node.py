@@ -48,7 +48,7 @@ from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimCo
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
-                                      robot_name, robot_topic, spin_node)
+                                      robot_name, robot_node_kwargs, robot_topic, spin_node)
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
@@ -87,7 +87,7 @@ class SimDriverNode(Node):
     """The simulated PX100 driver node ('sim_driver'); kwargs go to rclpy Node."""
 
     def __init__(self, **node_kwargs):
-        super().__init__('sim_driver', **node_kwargs)
+        super().__init__('sim_driver', **robot_node_kwargs('sim_driver', node_kwargs))
         self.model = declare_robot_parameters(self)
         dyn = ParameterDescriptor(dynamic_typing=True)
         self.declare_parameter('publish_rate', 100.0, ParameterDescriptor(

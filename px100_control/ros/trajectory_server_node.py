@@ -66,7 +66,8 @@ import numpy as np
 from px100_control.control import trajectory as tj
 from px100_control.errors import InvalidInputError
 from px100_control.ros import cdr
-from px100_control.ros.common import declare_robot_parameters, robot_name, robot_topic, spin_node
+from px100_control.ros.common import (declare_robot_parameters, robot_name, robot_node_kwargs,
+                                      robot_topic, spin_node)
 from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
@@ -144,7 +145,7 @@ class TrajectoryServerNode(Node):
     """Execute joint trajectories action-style: goal topic, status, cancel service, setpoints."""
 
     def __init__(self, **node_kwargs):
-        super().__init__(NODE_NAME, **node_kwargs)
+        super().__init__(NODE_NAME, **robot_node_kwargs(NODE_NAME, node_kwargs))
         self.model = declare_robot_parameters(self)
         for name, (default, description) in PARAMETERS.items():
             self.declare_parameter(name, default)

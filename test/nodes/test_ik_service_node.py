@@ -67,7 +67,7 @@ def env(ros_ctx, spinner, processes):
     driver = spinner.add(FakeDriver(context=ros_ctx, rate=50.0))
     client = spinner.add(IkClient(context=ros_ctx))
     server = start_node(processes, 'ik_service')
-    params = AsyncParameterClient(client, 'ik_service')
+    params = AsyncParameterClient(client, '/px100/ik_service')
     assert params.wait_for_services(STARTUP_TIMEOUT), server.output()
     assert wait_for(client.ready, STARTUP_TIMEOUT), server.output()
     time.sleep(0.5)

@@ -69,7 +69,7 @@ def env(ros_ctx, spinner, processes):
     driver = spinner.add(FakeDriver(context=ros_ctx))
     client = spinner.add(TrajectoryClient(context=ros_ctx))
     server = start_node(processes, 'trajectory_server', *PARAMS)
-    params = AsyncParameterClient(client, 'trajectory_server')
+    params = AsyncParameterClient(client, '/px100/trajectory_server')
     assert params.wait_for_services(STARTUP_TIMEOUT), server.output()
     assert wait_for(lambda: client.pub.get_subscription_count() > 0, STARTUP_TIMEOUT)
     assert wait_for(lambda: client.measured() is not None, 30.0)

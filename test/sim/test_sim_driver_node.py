@@ -203,7 +203,7 @@ def test_gripper_effort_and_object_grasp(spin_node, rclpy_context):
 def _parameter_setter(probe):
     """Return set_param(name, value) -> SetParametersResult, through sim_driver's service."""
     from rclpy.parameter_client import AsyncParameterClient
-    client = AsyncParameterClient(probe.node, 'sim_driver')
+    client = AsyncParameterClient(probe.node, '/px100/sim_driver')
     assert client.wait_for_services(timeout_sec=10.0)
 
     def set_param(name, value):

@@ -614,13 +614,14 @@ class Probe:
         return future.result()
 
     def param_client(self, node: str, kind: str):
-        """Return a client for ``/<node>/<kind>`` (set_parameters, get_parameters, ...)."""
+        """Return a client for ``/<robot_name>/<node>/<kind>`` (set_parameters, ...)."""
         types = {'set_parameters': SetParameters, 'get_parameters': GetParameters,
                  'set_parameters_atomically': SetParametersAtomically,
                  'list_parameters': ListParameters}
         key = (node, kind)
         if key not in self._param_clients:
-            self._param_clients[key] = self.node.create_client(types[kind], f'/{node}/{kind}')
+            self._param_clients[key] = self.node.create_client(types[kind],
+                                                                 f'{self.ns}/{node}/{kind}')
         return self._param_clients[key]
 
     def list_parameters(self, node: str, timeout: float = 5.0) -> List[str]:
