@@ -50,7 +50,7 @@ EXECUTABLES = _executables()
 
 @pytest.fixture(scope='module')
 def replay_bag():
-    """A small bag of joint_states for the replayer to loop over."""
+    """Write a small bag of joint_states for the replayer to loop over."""
     from px100_control.bag.writer import BagWriter
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
@@ -65,7 +65,7 @@ def replay_bag():
 
 @pytest.fixture(scope='module')
 def graph():
-    """An rclpy node of the test to watch the graph."""
+    """Yield an rclpy node of the test that watches the graph."""
     rclpy = pytest.importorskip('rclpy')
     ctx = rclpy.Context()
     rclpy.init(context=ctx)

@@ -172,7 +172,7 @@ class InterbotixRobotXSCore:
         self.connect_timeout = float(connect_timeout if connect_timeout is not None
                                      else env_float('PX100_CONNECT_TIMEOUT', 10.0))
         #: joint_states older than this [s] (wall) mean the driver stopped (trajectory_server
-        #: itself aborts a running goal after its state_timeout, 0.5 s by default)
+        #: itself aborts a running goal after its state_timeout, 1 s by default)
         self.stale_timeout = env_float('PX100_STALE_TIMEOUT', 3.0)
         self._torn_down = False
         self.js_mutex = threading.Lock()

@@ -10,6 +10,7 @@ import sys
 from typing import List
 
 from px100_control.ros.common import parse_cli, run_nodes
+from px100_control.ros.parameter_schema import IK_SERVICE, SIM_DRIVER, TRAJECTORY_SERVER
 
 
 def create_nodes(**node_kwargs) -> List:
@@ -31,7 +32,8 @@ def create_nodes(**node_kwargs) -> List:
 def main(args=None) -> int:
     """Run the three nodes until SIGINT/SIGTERM (``ros2 run px100_control bringup``)."""
     _, argv = parse_cli('Run sim_driver, ik_service and trajectory_server of px100_control in '
-                        'one process.', args)
+                        'one process.', args,
+                        schemas=(SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER))
     return run_nodes(create_nodes, argv)
 
 

@@ -11,11 +11,13 @@ prefixes the tf frames (``<robot_name>/base_link``); ``robot_name:=''`` with no 
 the node in ``/`` with unprefixed frames.
 """
 import argparse
+import math
 import signal
 from typing import List, Optional, Sequence
 
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
+from px100_control.ros.parameter_schema import COMMON, NodeSchema, ParamSpec
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
@@ -67,10 +69,73 @@ def robot_node_kwargs(node_name: str, node_kwargs: dict) -> dict:
     return kwargs
 
 
+def parameter_descriptor(spec: ParamSpec):
+    """Return the rcl_interfaces ParameterDescriptor of a schema entry (ranges, read-only)."""
+    from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                    ParameterType)
+    kinds = {'double': ParameterType.PARAMETER_DOUBLE,
+             'integer': ParameterType.PARAMETER_INTEGER, 'bool': ParameterType.PARAMETER_BOOL,
+             'string': ParameterType.PARAMETER_STRING,
+             'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY}
+    d = ParameterDescriptor(name=spec.name, type=kinds[spec.kind], description=spec.description,
+                            additional_constraints=spec.constraints(),
+                            read_only=spec.read_only)
+    if spec.low is not None or spec.high is not None:
+        low = spec.low if spec.low is not None else -math.inf
+        high = spec.high if spec.high is not None else math.inf
+        if spec.allow_inf:
+            high = math.inf      # the check in the schema keeps the finite upper bound
+        if spec.kind == 'integer':
+            d.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=0)]
+        else:
+            d.floating_point_range = [FloatingPointRange(from_value=float(low),
+                                                         to_value=float(high), step=0.0)]
+    return d
+
+
+def declare_schema(node: Node, schema: NodeSchema, defaults: Optional[dict] = None,
+                   skip: Sequence[str] = ('robot_model', 'robot_name')) -> None:
+    """
+    Declare a node's parameters from its schema and check every value set later against it.
+
+    :param defaults: {name: default} for the parameters the node computes (spec default None)
+    :param skip: names declared elsewhere (robot_model / robot_name by
+        :func:`declare_robot_parameters`)
+    :raises Px100Error: a value from the command line or a params file is not valid (the
+        message names the parameter and the allowed values)
+    """
+    from px100_control.errors import InvalidInputError
+    from rcl_interfaces.msg import SetParametersResult
+    defaults = defaults or {}
+    names = []
+    for spec in schema.params:
+        if spec.name in skip:
+            continue
+        default = defaults.get(spec.name, spec.default)
+        node.declare_parameter(spec.name, default, parameter_descriptor(spec))
+        names.append(spec.name)
+
+    def _check(params):
+        for p in params:
+            if p.name in names:
+                problem = schema[p.name].check(p.value)
+                if problem:
+                    return SetParametersResult(successful=False, reason=problem)
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(_check)
+    bad = _check([node.get_parameter(n) for n in names]).reason
+    if bad:
+        raise InvalidInputError(f'{schema.node} parameters: {bad}')
+
+
 def declare_robot_parameters(node: Node) -> RobotModel:
     """Declare robot_model/robot_name (default: the namespace) and return the RobotModel."""
-    model_name = node.declare_parameter('robot_model', 'px100').value
-    node.declare_parameter('robot_name', node.get_namespace().strip('/'))
+    robot_model, name = COMMON
+    model_name = node.declare_parameter('robot_model', robot_model.default,
+                                        parameter_descriptor(robot_model)).value
+    node.declare_parameter('robot_name', node.get_namespace().strip('/'),
+                           parameter_descriptor(name))
     return load_robot(model_name)
 
 
@@ -96,20 +161,27 @@ def frame_id(node: Node, frame: str) -> str:
 
 
 def parse_cli(description: str, args: Optional[Sequence[str]] = None,
-              add_arguments=None) -> (argparse.Namespace, List[str]):
+              add_arguments=None, schemas: Sequence[NodeSchema] = ()
+              ) -> (argparse.Namespace, List[str]):
     """
-    Parse a node's command line: ``--help`` and its own options, ROS args passed through.
+    Parse a node's command line: ``--help`` (with the nodes' parameters), own options, ROS args.
 
+    :param schemas: the parameter schemas of the nodes this executable runs (``--help``)
     :return: (parsed options, the full argv to hand to ``rclpy.init(args=...)``)
     """
     import sys
 
     from rclpy.utilities import remove_ros_args
     argv = list(sys.argv if args is None else args)
+    epilog = ('ROS arguments: --ros-args -r __ns:=/px100 -p robot_model:=px100 '
+              '--params-file config/px100.yaml -r joint_states:=js\n'
+              'Nodes run in the robot namespace (/<robot_name>, default /px100) with relative '
+              'names.')
+    for schema in schemas:
+        epilog += '\n\n' + schema.help_text()
     parser = argparse.ArgumentParser(
         prog=argv[0].rsplit('/', 1)[-1] if argv else None, description=description,
-        epilog='ROS arguments: --ros-args -p robot_model:=px100 -p robot_name:=px100 '
-               '--params-file config/px100.yaml -r from:=to')
+        epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
     if add_arguments is not None:
         add_arguments(parser)
     options = parser.parse_args(remove_ros_args(argv)[1:])
@@ -267,11 +339,14 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
     return 0
 
 
-def spin_node(node_factory, args=None, description: str = '', add_arguments=None) -> int:
+def spin_node(node_factory, args=None, description: str = '', add_arguments=None,
+              schema: Optional[NodeSchema] = None) -> int:
     """
     Run one node the Jazzy way: init, spin until SIGINT/SIGTERM/shutdown, destroy, shutdown.
 
     :param node_factory: callable(options) -> Node; it spins in :func:`make_executor`'s executor
+    :param schema: the node's parameter schema (printed by ``--help``)
     """
-    options, argv = parse_cli(description, args, add_arguments)
+    options, argv = parse_cli(description, args, add_arguments,
+                              (schema,) if schema is not None else ())
     return run_nodes(lambda: [node_factory(options)], argv)

@@ -17,7 +17,9 @@ Topics (docs/ros_interfaces.md, relative to ``/<robot_name>``):
   unreachable_roll / unreachable_yaw [rad].
 - ``ik/path_request`` (geometry_msgs/PoseArray) -> ``ik/path_solution``
   (trajectory_msgs/JointTrajectory, same stamp): one point per pose, each seeded by the
-  previous one (no branch jumps), ``time_from_start`` left 0 (the caller times the path). A pose
+  previous one (no branch jumps), ``time_from_start`` from the current joint state so no joint
+  exceeds ``max_path_joint_velocity`` nor its URDF velocity limit, points at least
+  ``min_path_point_time`` apart (the reply can be sent as a trajectory goal as is). A pose
   that fails stops the path: the reply then holds the points solved before it, and the
   ik/status (ERROR, same id) says which pose (value ``failed_index``) and why.
 
@@ -45,6 +47,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
+from px100_control.control.path_timing import joint_speed_bounds, path_times
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.ik_types import IkResult
@@ -55,10 +58,12 @@ from px100_control.kinematics.solve import (METHODS, scalar_pitch_solver, solve_
                                             solve_pitch_scalar)
 from px100_control.kinematics.solve import solve_ik_batch as ik_batch
 from px100_control.ros import cdr
-from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
-                                      robot_node_kwargs, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
+                                      robot_name, robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
+from px100_control.ros.parameter_schema import IK_SERVICE
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
@@ -77,16 +82,6 @@ BATCH_MIN = 4
 REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
-
-PARAMETERS = {
-    'orientation_mode': ('pitch', "'pitch' (report unreachable roll/yaw) or 'strict' (refuse)"),
-    'orientation_tolerance': (1e-3, 'pitch mode: dropped roll/yaw above this is named [rad]'),
-    'method': ('auto', 'IK method: ' + ', '.join(METHODS)),
-    'tol_position': (1e-9, 'position tolerance of a solution [m]'),
-    'tol_orientation': (1e-9, 'orientation tolerance of a solution [rad]'),
-    'max_iterations': (200, 'iterations per start of an iterative method'),
-    'nominal_pose': (None, 'secondary-task target and seed before any state [rad] (home)'),
-}
 
 
 def parse_pose_stamped(raw: bytes):
@@ -130,12 +125,11 @@ class IkServiceNode(Node):
     def __init__(self, **node_kwargs):
         super().__init__(NODE_NAME, **robot_node_kwargs(NODE_NAME, node_kwargs))
         self.model = declare_robot_parameters(self)
-        for name, (default, _) in PARAMETERS.items():
-            if name == 'nominal_pose':
-                default = [float(x) for x in self.model.home]
-            self.declare_parameter(name, default)
+        declare_schema(self, IK_SERVICE,
+                       defaults={'nominal_pose': [float(x) for x in self.model.home]})
         self.add_on_set_parameters_callback(self._check_parameters)
-        bad = self._check_parameters([self.get_parameter(n) for n in PARAMETERS]).reason
+        bad = self._check_parameters([self.get_parameter(n) for n in IK_SERVICE.names
+                                      if n not in ('robot_model', 'robot_name')]).reason
         if bad:
             raise InvalidInputError(f'ik_service parameters: {bad}')
         self._names = list(self.model.joint_names)
@@ -485,7 +479,8 @@ class IkServiceNode(Node):
                 raise InvalidInputError('the path mixes position-only poses (all-zero '
                                         'quaternion) with oriented ones')
             mode = modes.pop()
-            results = solve_path(self.model, targets, self._seed(), mode=mode,
+            seed = self._seed()
+            results = solve_path(self.model, targets, seed, mode=mode,
                                  q_nominal=self._nominal if mode == 'position' else None,
                                  **self._kwargs)
         except InvalidInputError as exc:
@@ -498,8 +493,15 @@ class IkServiceNode(Node):
             self._path_status(stamp, DiagnosticStatus.ERROR, f'internal error: {exc!r}', [])
             return
         ok = [r for r in results if r.success]
-        for r in ok:
-            reply.points.append(JointTrajectoryPoint(positions=[float(x) for x in r.q]))
+        if ok:
+            bounds = joint_speed_bounds(self.model.velocity_limits,
+                                        self.get_parameter('max_path_joint_velocity').value)
+            times = path_times([r.q for r in ok], seed, bounds,
+                               self.get_parameter('min_path_point_time').value)
+            for r, t in zip(ok, times):
+                reply.points.append(JointTrajectoryPoint(
+                    positions=[float(x) for x in r.q],
+                    time_from_start=Duration(seconds=float(t)).to_msg()))
         self._pub_path.publish(reply)
         values = [('poses', str(len(targets))), ('solved', str(len(ok))), ('mode', mode),
                   ('method', results[-1].method),
@@ -526,7 +528,7 @@ class IkServiceNode(Node):
 
 def main(args=None):
     """Run the ik_service node (``ros2 run px100_control ik_service``)."""
-    return spin_node(lambda options: IkServiceNode(), args,
+    return spin_node(lambda options: IkServiceNode(), args, schema=IK_SERVICE,
                      description='Inverse kinematics service of px100_control '
                                  '(ik/request -> ik/solution + ik/status, ik/path_request).')
 

@@ -52,9 +52,10 @@ from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
 from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
-                                      install_stop_signals, keep_spinning,
-                                      make_executor, parse_cli, robot_name, robot_node_kwargs,
-                                      shutdown_executor, shutting_down)
+                                      install_stop_signals, keep_spinning, make_executor,
+                                      parameter_descriptor, parse_cli, robot_name,
+                                      robot_node_kwargs, shutdown_executor, shutting_down)
+from px100_control.ros.parameter_schema import COMMON, RECORDER
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -159,8 +160,10 @@ class RecorderNode(Node):
         super().__init__('recorder', **robot_node_kwargs('recorder', node_kwargs))
         # the robot_model/robot_name parameters of declare_robot_parameters(), but the model
         # (URDF parsing, slow to import) is loaded in the background: recording starts at once
-        model_name = str(self.declare_parameter('robot_model', 'px100').value)
-        self.declare_parameter('robot_name', self.get_namespace().strip('/'))
+        model_name = str(self.declare_parameter(
+            'robot_model', 'px100', parameter_descriptor(COMMON[0])).value)
+        self.declare_parameter('robot_name', self.get_namespace().strip('/'),
+                               parameter_descriptor(COMMON[1]))
         read_robot_file(model_name)  # fast check: raises UnknownRobotError for a bad name
         self.model_name = model_name
         self.robot_name = robot_name(self)
@@ -663,7 +666,7 @@ def main(args=None) -> int:
 
     from rclpy.executors import ExternalShutdownException
     options, argv = parse_cli('Record topics to a rosbag2-compatible MCAP bag.', args,
-                              _add_arguments)
+                              _add_arguments, (RECORDER,))
     install_stop_signals()
     rclpy.init(args=argv)
     node = None

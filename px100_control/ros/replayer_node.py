@@ -27,9 +27,10 @@ from px100_control.bag.replay import parse_remaps, ReplaySchedule, resolve_topic
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
 from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
-                                      install_stop_signals, keep_spinning,
-                                      make_executor, parse_cli, robot_node_kwargs,
+                                      install_stop_signals, keep_spinning, make_executor,
+                                      parameter_descriptor, parse_cli, robot_node_kwargs,
                                       shutdown_executor, shutting_down)
+from px100_control.ros.parameter_schema import COMMON, REPLAYER
 from px100_control.ros.recorder_node import message_class
 import rclpy
 from rclpy.node import Node
@@ -76,8 +77,10 @@ class ReplayerNode(Node):
                  progress: bool = True, **node_kwargs):
         super().__init__('replayer', **robot_node_kwargs('replayer', node_kwargs))
         # the robot_model/robot_name parameters of every node (the model itself is not needed)
-        read_robot_file(str(self.declare_parameter('robot_model', 'px100').value))
-        self.declare_parameter('robot_name', self.get_namespace().strip('/'))
+        read_robot_file(str(self.declare_parameter(
+            'robot_model', 'px100', parameter_descriptor(COMMON[0])).value))
+        self.declare_parameter('robot_name', self.get_namespace().strip('/'),
+                               parameter_descriptor(COMMON[1]))
         # the bag's topics keep their recorded (absolute) names; relative --topics / --remap
         # names resolve in the node's namespace, the robot's
         ns = self.get_namespace()
@@ -315,7 +318,7 @@ def main(args=None) -> int:
     from rclpy.executors import ExternalShutdownException
     argv, remaps = extract_remaps(sys.argv if args is None else args)
     options, argv = parse_cli('Publish a recorded bag into the ROS graph with its timing.',
-                              argv, _add_arguments)
+                              argv, _add_arguments, (REPLAYER,))
     options.remap = remaps
     install_stop_signals()
     rclpy.init(args=argv)

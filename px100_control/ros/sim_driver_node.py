@@ -47,8 +47,10 @@ from px100_control.control.pid import GAIN_FIELDS, PidGains
 from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
-from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
-                                      robot_name, robot_node_kwargs, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
+                                      LATCHED_QOS, robot_name, robot_node_kwargs, robot_topic,
+                                      spin_node)
+from px100_control.ros.parameter_schema import SIM_DRIVER
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
@@ -89,25 +91,9 @@ class SimDriverNode(Node):
     def __init__(self, **node_kwargs):
         super().__init__('sim_driver', **robot_node_kwargs('sim_driver', node_kwargs))
         self.model = declare_robot_parameters(self)
-        dyn = ParameterDescriptor(dynamic_typing=True)
-        self.declare_parameter('publish_rate', 100.0, ParameterDescriptor(
-            description='joint_states / ee_pose rate [Hz]'))
-        self.declare_parameter('control_rate', 1000.0, ParameterDescriptor(
-            description='physics and PID rate [Hz]'))
-        self.declare_parameter('real_time_factor', 1.0, ParameterDescriptor(
-            description='simulated s per wall s; 0 or inf = as fast as possible'))
-        self.declare_parameter('publish_clock', False, ParameterDescriptor(
-            description='own the clock and publish /clock (also when real_time_factor = 1)',
-            read_only=True))
-        self.declare_parameter('clock_rate', 250.0, ParameterDescriptor(
-            description='/clock rate in simulated time [Hz]'))
-        self.declare_parameter('dynamics_divider', 4, ParameterDescriptor(
-            description='re-evaluate the mass matrix and bias forces every k physics steps'))
-        self.declare_parameter('object_width', 0.0, ParameterDescriptor(
-            description='width of an object between the fingers [m], 0 = none'))
-        units = self.declare_parameter('gains_units', 'si', ParameterDescriptor(
-            description="'si' or 'dynamixel' (p/i/d as Position P/I/D Gain registers)",
-            read_only=True)).value
+        declare_schema(self, SIM_DRIVER)
+        units = self.get_parameter('gains_units').value
+        dyn = ParameterDescriptor(dynamic_typing=True, description=SIM_DRIVER.groups[0][1])
         if units not in ('si', 'dynamixel'):
             raise Px100Error(f"gains_units must be 'si' or 'dynamixel', not {units!r}")
         self._units = units
@@ -672,7 +658,7 @@ def _replace_config(config: SimConfig, **changes) -> SimConfig:
 
 def main(args=None):
     """Run the sim_driver node until SIGINT."""
-    return spin_node(lambda options: SimDriverNode(), args,
+    return spin_node(lambda options: SimDriverNode(), args, schema=SIM_DRIVER,
                      description='Simulated PincherX-100 joint-state driver: rigid-body joint '
                                  'dynamics, XL430 servo model and one PID loop per joint.')
 

@@ -66,9 +66,10 @@ import numpy as np
 from px100_control.control import trajectory as tj
 from px100_control.errors import InvalidInputError
 from px100_control.ros import cdr
-from px100_control.ros.common import (declare_robot_parameters, robot_name, robot_node_kwargs,
-                                      robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, declare_schema, robot_name,
+                                      robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
+from px100_control.ros.parameter_schema import TRAJECTORY_SERVER
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
@@ -103,26 +104,6 @@ STALL_WARN = 0.25
 #: the driver's publish period (20 Hz here; sim_driver publishes at 100 Hz)
 MIN_HOLD_AFTER = 0.05
 
-#: parameter -> (default, description); defaults mirror config/px100.yaml
-PARAMETERS = {
-    'rate': (200.0, 'setpoint rate [Hz] (read at start)'),
-    'profile': ('trapezoidal', 'one-point move profile: ' + ', '.join(tj.PROFILES)),
-    'moving_time': (2.0, 'duration of a one-point goal whose time_from_start is 0 [s]'),
-    'accel_time': (0.3, 'trapezoidal ramp time [s], clipped to moving_time/2'),
-    'max_joint_step': (0.01, 'linear_max_step: largest joint step between setpoints [rad]'),
-    'state_timeout': (1.0, 'abort a goal when joint_states stop for this long [s]'),
-    'hold_after': (0.25, 'pause a goal (no setpoints, its clock stopped) while joint_states '
-                         'are older than this [s]; it resumes where it paused. At least '
-                         "0.05 s and longer than the driver's publish period"),
-    'path_tolerance': (0.2, 'abort when a joint is this far from its setpoints [rad]'),
-    'path_window': (0.2, 'a measurement may lag its setpoints by this much [s]'),
-    'goal_tolerance': (0.002, 'success when every joint is this close to the end [rad]'),
-    'goal_time_tolerance': (1.0, 'time allowed after the trajectory to settle [s]'),
-    'stop_deceleration': (10.0, 'deceleration of a canceled goal [rad/s^2]'),
-    'start_tolerance': (0.05, 'a first point at t=0 must be this close to the start [rad]'),
-    'status_history': (50, 'number of recent goals kept in trajectory/status'),
-}
-
 
 @dataclass
 class _Goal:
@@ -147,11 +128,10 @@ class TrajectoryServerNode(Node):
     def __init__(self, **node_kwargs):
         super().__init__(NODE_NAME, **robot_node_kwargs(NODE_NAME, node_kwargs))
         self.model = declare_robot_parameters(self)
-        for name, (default, description) in PARAMETERS.items():
-            self.declare_parameter(name, default)
+        declare_schema(self, TRAJECTORY_SERVER)
         self.add_on_set_parameters_callback(self._check_parameters)
         bad = self._check_parameters(
-            [self.get_parameter(name) for name in PARAMETERS]).reason
+            [self.get_parameter(name) for name in TRAJECTORY_SERVER.names]).reason
         if bad:
             raise InvalidInputError(f'trajectory_server parameters: {bad}')
         self._n = self.model.dof
@@ -691,7 +671,7 @@ def _uuid_bytes(uuid) -> bytes:
 
 def main(args=None):
     """Run the trajectory_server node (``ros2 run px100_control trajectory_server``)."""
-    return spin_node(lambda options: TrajectoryServerNode(), args,
+    return spin_node(lambda options: TrajectoryServerNode(), args, schema=TRAJECTORY_SERVER,
                      description='Action-style joint trajectory server of px100_control '
                                  '(trajectory/goal, trajectory/status, trajectory/cancel).')
 

@@ -620,8 +620,8 @@ class Probe:
                  'list_parameters': ListParameters}
         key = (node, kind)
         if key not in self._param_clients:
-            self._param_clients[key] = self.node.create_client(types[kind],
-                                                                 f'{self.ns}/{node}/{kind}')
+            self._param_clients[key] = self.node.create_client(
+                types[kind], f'{self.ns}/{node}/{kind}')
         return self._param_clients[key]
 
     def list_parameters(self, node: str, timeout: float = 5.0) -> List[str]:
