@@ -45,19 +45,20 @@ class TrajectoryClient(Node):
     """Publish goals, follow trajectory/status, /diagnostics and joint_states, call cancel."""
 
     def __init__(self, **kwargs):
+        kwargs.setdefault('namespace', '/px100')   # the robot's: names below are relative
         super().__init__('test_trajectory_client', **kwargs)
         self.lock = threading.Lock()
         self.history = {}  # (sec, nanosec) -> [status names in arrival order]
         self.diagnostics = []
         self.joint_state = None
         self.setpoints = []
-        self.pub = self.create_publisher(JointTrajectory, '/px100/trajectory/goal', 10)
-        self.create_subscription(GoalStatusArray, '/px100/trajectory/status', self._on_status,
+        self.pub = self.create_publisher(JointTrajectory, 'trajectory/goal', 10)
+        self.create_subscription(GoalStatusArray, 'trajectory/status', self._on_status,
                                  LATCHED)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 50)
-        self.create_subscription(JointState, '/px100/joint_states', self._on_js, 10)
-        self.create_subscription(JointState, '/px100/commands/joint_setpoints', self._on_sp, 100)
-        self.cancel_client = self.create_client(CancelGoal, '/px100/trajectory/cancel')
+        self.create_subscription(JointState, 'joint_states', self._on_js, 10)
+        self.create_subscription(JointState, 'commands/joint_setpoints', self._on_sp, 100)
+        self.cancel_client = self.create_client(CancelGoal, 'trajectory/cancel')
 
     def _on_status(self, msg):
         with self.lock:
@@ -169,17 +170,18 @@ class IkClient(Node):
     def __init__(self, name: str = 'test_ik_client', **kwargs):
         from diagnostic_msgs.msg import DiagnosticStatus
         from geometry_msgs.msg import PoseArray, PoseStamped
+        kwargs.setdefault('namespace', '/px100')   # the robot's: names below are relative
         super().__init__(name, **kwargs)
         self.lock = threading.Lock()
         self.solutions = {}   # (sec, nanosec) -> [JointState]
         self.statuses = {}    # 'sec.nanosec' -> [DiagnosticStatus]
         self.paths = {}       # (sec, nanosec) -> [JointTrajectory]
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.pub = self.create_publisher(PoseStamped, '/px100/ik/request', qos)
-        self.pub_path = self.create_publisher(PoseArray, '/px100/ik/path_request', 10)
-        self.create_subscription(JointState, '/px100/ik/solution', self._on_solution, qos)
-        self.create_subscription(DiagnosticStatus, '/px100/ik/status', self._on_status, qos)
-        self.create_subscription(JointTrajectory, '/px100/ik/path_solution', self._on_path, 10)
+        self.pub = self.create_publisher(PoseStamped, 'ik/request', qos)
+        self.pub_path = self.create_publisher(PoseArray, 'ik/path_request', 10)
+        self.create_subscription(JointState, 'ik/solution', self._on_solution, qos)
+        self.create_subscription(DiagnosticStatus, 'ik/status', self._on_status, qos)
+        self.create_subscription(JointTrajectory, 'ik/path_solution', self._on_path, 10)
 
     def _on_solution(self, msg):
         with self.lock:
@@ -198,7 +200,7 @@ class IkClient(Node):
     def ready(self) -> bool:
         """Return True once the ik_service matched our request publisher and reply readers."""
         return (self.pub.get_subscription_count() > 0
-                and self.count_publishers('/px100/ik/status') > 0
+                and self.count_publishers(self.resolve_topic_name('ik/status')) > 0
                 and self.pub_path.get_subscription_count() > 0)
 
     def request(self, pose, frame_id: str = '', stamp=None) -> Time:

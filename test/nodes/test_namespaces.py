@@ -1,0 +1,169 @@
+"""
+Robot namespace and relative names, as ``ros2 run`` users drive them (real processes over DDS).
+
+- no namespace: ``/px100/<node>`` and today's ``/px100/...`` names;
+- ``-r __ns:=/other`` plus a relative remap ``-r joint_states:=js``: every topic, service and
+  parameter of each node moves (only the global ``/diagnostics``, ``/rosout``,
+  ``/parameter_events`` stay), robot_name and the tf frames follow the namespace;
+- two robots (two ``bringup`` processes) run side by side by namespace alone; a Cartesian path
+  from one robot's ik_service runs as that robot's trajectory goal (its time_from_start), and
+  the other robot does not move.
+"""
+import math
+import time
+
+from nodes_helpers import IkClient, STARTUP_TIMEOUT, TrajectoryClient, wait_for
+from px100_control.tools.processes import NodeProcess
+import pytest
+
+GLOBAL = {'/diagnostics', '/rosout', '/parameter_events', '/clock'}
+NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+
+
+def _start(processes, name, *ros_args):
+    proc = NodeProcess(name, ['--ros-args', *ros_args])
+    processes.append(proc)
+    return proc
+
+
+def _wait_node(probe, ns, name, proc, timeout=STARTUP_TIMEOUT):
+    ok = wait_for(lambda: (name, ns) in probe.get_node_names_and_namespaces() or
+                  not proc.alive(), timeout, 0.1)
+    assert ok and proc.alive(), f'{ns}/{name} did not come up:\n{proc.output()[-2000:]}'
+
+
+def _names(probe, name, ns, ready=None, timeout=STARTUP_TIMEOUT):
+    """
+    Return (published, subscribed, services) names of a node.
+
+    :param ready: a name (topic or service) whose presence means the node finished building
+    """
+    def snapshot():
+        return ({t for t, _ in probe.get_publisher_names_and_types_by_node(name, ns)},
+                {t for t, _ in probe.get_subscriber_names_and_types_by_node(name, ns)},
+                {t for t, _ in probe.get_service_names_and_types_by_node(name, ns)})
+    if ready is not None:
+        assert wait_for(lambda: any(ready in part for part in snapshot()), timeout, 0.1), \
+            (name, ready, snapshot())
+    time.sleep(1.0)       # discovery of the entities created after it
+    return snapshot()
+
+
+def _get_param(probe, fqn, name):
+    from rcl_interfaces.srv import GetParameters
+    cli = probe.create_client(GetParameters, f'{fqn}/get_parameters')
+    try:
+        assert cli.wait_for_service(timeout_sec=20.0), f'no {fqn}/get_parameters'
+        fut = cli.call_async(GetParameters.Request(names=[name]))
+        assert wait_for(fut.done, 10.0)
+        return fut.result().values[0].string_value
+    finally:
+        probe.destroy_client(cli)
+
+
+@pytest.fixture(scope='module')
+def probe(ros_ctx, spinner):
+    """A node of the test that looks at the graph."""
+    from rclpy.node import Node
+    return spinner.add(Node('namespace_probe', context=ros_ctx))
+
+
+def test_without_a_namespace_the_names_stay_what_they_were(probe, processes):
+    """`ros2 run px100_control sim_driver`: node /px100/sim_driver, topics /px100/..."""
+    proc = _start(processes, 'sim_driver')
+    _wait_node(probe, '/px100', 'sim_driver', proc)
+    pubs, subs, srvs = _names(probe, 'sim_driver', '/px100', '/px100/reset')
+    assert {'/px100/joint_states', '/px100/ee_pose', '/px100/robot_description'} <= pubs
+    assert '/px100/commands/joint_setpoints' in subs
+    assert {'/px100/torque_enable', '/px100/reset', '/px100/sim_driver/set_parameters'} <= srvs
+    assert _get_param(probe, '/px100/sim_driver', 'robot_name') == 'px100'
+    proc.stop()
+    assert proc.proc.returncode == 0, proc.output()[-2000:]
+
+
+def test_robot_name_places_a_node_started_without_namespace(probe, processes):
+    """`-p robot_name:=arm7` (no __ns): the node and its names move to /arm7."""
+    proc = _start(processes, 'trajectory_server', '-p', 'robot_name:=arm7')
+    _wait_node(probe, '/arm7', 'trajectory_server', proc)
+    pubs, subs, srvs = _names(probe, 'trajectory_server', '/arm7', '/arm7/trajectory/cancel')
+    assert {'/arm7/trajectory/status', '/arm7/commands/joint_setpoints'} <= pubs
+    assert {'/arm7/joint_states', '/arm7/trajectory/goal'} <= subs
+    assert '/arm7/trajectory/cancel' in srvs
+    proc.stop()
+
+
+def test_ns_and_relative_remap_move_every_name(probe, processes):
+    """-r __ns:=/other -r joint_states:=js moves topics, services, parameters; frames follow."""
+    from geometry_msgs.msg import PoseStamped
+    procs = {n: _start(processes, n, '-r', '__ns:=/other', '-r', 'joint_states:=js')
+             for n in NODES}
+    for name, proc in procs.items():
+        _wait_node(probe, '/other', name, proc)
+    seen = {}
+    ready = {'sim_driver': '/other/reset', 'ik_service': '/other/ik/path_request',
+             'trajectory_server': '/other/trajectory/cancel'}
+    for name in NODES:
+        pubs, subs, srvs = _names(probe, name, '/other', ready[name])
+        seen[name] = (pubs, subs, srvs)
+        for topic in (pubs | subs | srvs) - GLOBAL:
+            assert topic.startswith('/other/'), (name, topic)
+        assert f'/other/{name}/get_parameters' in srvs, (name, srvs)
+        assert '/other/joint_states' not in pubs | subs, name
+        assert _get_param(probe, f'/other/{name}', 'robot_name') == 'other'
+    assert '/other/js' in seen['sim_driver'][0]
+    assert '/other/js' in seen['ik_service'][1] and '/other/js' in seen['trajectory_server'][1]
+    assert {'/other/torque_enable', '/other/reset'} <= seen['sim_driver'][2]
+    assert '/other/trajectory/cancel' in seen['trajectory_server'][2]
+    assert {'/other/ik/request', '/other/ik/path_request'} <= seen['ik_service'][1]
+    frames = []
+    sub = probe.create_subscription(PoseStamped, '/other/ee_pose',
+                                    lambda m: frames.append(m.header.frame_id), 10)
+    try:
+        assert wait_for(lambda: frames, 20.0)
+    finally:
+        probe.destroy_subscription(sub)
+    assert frames[0] == 'other/base_link'
+    for proc in procs.values():
+        proc.stop()
+        assert proc.proc.returncode == 0, proc.output()[-2000:]
+
+
+def test_two_robots_side_by_side_by_namespace_alone(ros_ctx, spinner, probe, processes):
+    """Two bringups (/arm1, /arm2); arm1 runs its ik_service's timed path, arm2 stays put."""
+    from geometry_msgs.msg import Pose
+    b1 = _start(processes, 'bringup', '-r', '__ns:=/arm1')
+    b2 = _start(processes, 'bringup', '-r', '__ns:=/arm2')
+    for ns, proc in (('/arm1', b1), ('/arm2', b2)):
+        for name in NODES:
+            _wait_node(probe, ns, name, proc)
+    arm1 = spinner.add(TrajectoryClient(context=ros_ctx, namespace='/arm1'))
+    arm2 = spinner.add(TrajectoryClient(context=ros_ctx, namespace='/arm2'))
+    ik1 = spinner.add(IkClient(context=ros_ctx, namespace='/arm1'))
+    assert wait_for(lambda: arm1.measured() and arm2.measured(), 30.0)
+    assert wait_for(ik1.ready, 30.0)
+    start2 = arm2.measured()
+    poses = []
+    for k in range(6):          # a 10 cm line at z = 0.15 m, position-only (zero quaternion)
+        p = Pose()
+        p.position.x, p.position.y, p.position.z = 0.20, -0.05 + 0.02 * k, 0.15
+        p.orientation.w = 0.0
+        poses.append(p)
+    path, status = ik1.path_reply(ik1.request_path(poses, 'arm1/base_link'), 30.0)
+    assert status.message == 'solved', status.message
+    times = [pt.time_from_start.sec + pt.time_from_start.nanosec * 1e-9 for pt in path.points]
+    assert times[0] > 0 and all(b > a for a, b in zip(times, times[1:])), times
+    for a, b, ta, tb in zip(path.points, path.points[1:], times, times[1:]):
+        speed = max(abs(x - y) for x, y in zip(a.positions, b.positions)) / (tb - ta)
+        assert speed <= 1.0 + 1e-6, speed                      # max_path_joint_velocity
+    goal = arm1.send(path.joint_names,
+                     [(t, pt.positions) for t, pt in zip(times, path.points)])
+    assert arm1.wait_terminal(goal, times[-1] + 20.0) == 'SUCCEEDED', arm1.statuses(goal)
+    end = arm1.measured()
+    for name, q in zip(path.joint_names, path.points[-1].positions):
+        assert abs(end[name] - q) < 0.01, (name, end[name], q)
+    moved2 = max(abs(arm2.measured()[n] - start2[n]) for n in path.joint_names)
+    assert moved2 < 1e-3, moved2
+    assert not math.isnan(moved2)
+    for proc in (b1, b2):
+        proc.stop()
+        assert proc.proc.returncode == 0, proc.output()[-2000:]
