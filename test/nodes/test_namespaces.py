@@ -63,7 +63,7 @@ def _get_param(probe, fqn, name):
 
 @pytest.fixture(scope='module')
 def probe(ros_ctx, spinner):
-    """A node of the test that looks at the graph."""
+    """Return a node of the test that looks at the graph."""
     from rclpy.node import Node
     return spinner.add(Node('namespace_probe', context=ros_ctx))
 
