@@ -81,7 +81,9 @@ def _start(name, ns, tmp, replay_bag, executor):
     if name == 'record':
         args = ['-a', '-o', os.path.join(tmp, f'bag_{ns.strip("/")}'), '--flush-period', '0.2']
     elif name == 'replay':
-        args = [replay_bag, '--loop', '--no-progress']
+        # the bag's /px100/joint_states into the process's own namespace (not the robot's)
+        args = [replay_bag, '--loop', '--no-progress', '--remap',
+                '/px100/joint_states:=joint_states']
     elif name == 'viewer':
         args = ['--ros-args', '-p', f'port:={8140 + random.randrange(10)}']
     ros_args = ['-r', f'__ns:={ns}']

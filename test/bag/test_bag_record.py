@@ -56,14 +56,14 @@ def _publish(fake, first, count, period=0.005):
         time.sleep(period)
 
 
-def test_record_all_topics_then_sigint(rclpy_context, spin_node, node_process, tmp_path):
-    """-a records every /px100 topic and /diagnostics (not others), content, QoS, /tf."""
+def test_record_robot_topics_then_sigint(rclpy_context, spin_node, node_process, tmp_path):
+    """--robot-only records every /px100 topic and /diagnostics (not others), content, /tf."""
     fake = spin_node(FakeRobot(context=rclpy_context))
     urdf = prefix_urdf(load_robot('px100').urdf_xml, 'px100')
     fake.desc.publish(fake.String(data=urdf))
     fake.status.publish(fake.GoalStatusArray())
     bag_dir = str(tmp_path / 'all')
-    proc = _start_recording(node_process, fake, bag_dir, '-a', '--tf-rate', '1000')
+    proc = _start_recording(node_process, fake, bag_dir, '--robot-only', '--tf-rate', '1000')
     assert fake.wait_for_subscribers([fake.sp, fake.diag])
     _publish(fake, 0, 300)
     sp = fake.joint_state(7)
@@ -99,6 +99,21 @@ def test_record_all_topics_then_sigint(rclpy_context, spin_node, node_process, t
         summary = reader.summary()
     assert summary.topics['/px100/joint_states'].message_count == 300
     assert summary.message_count == sum(len(v) for v in msgs.values())
+
+
+def test_record_a_records_every_topic(rclpy_context, spin_node, node_process, tmp_path):
+    """-a records every topic of the graph, as ros2 bag record -a: other namespaces too."""
+    fake = spin_node(FakeRobot(context=rclpy_context))
+    bag_dir = str(tmp_path / 'everything')
+    proc = _start_recording(node_process, fake, bag_dir, '-a', '--no-tf')
+    assert fake.wait_for_subscribers([fake.other, fake.diag])
+    _publish(fake, 0, 20)
+    fake.other.publish(fake.String(data='recorded too'))
+    time.sleep(1.0)
+    assert proc.stop(30.0) == 0, proc.output()
+    msgs, types, _ = _read_bag(bag_dir)
+    assert [m.data for m in msgs['/elsewhere/chatter']] == ['recorded too']
+    assert [m.position[0] for m in msgs[JS]] == list(range(20))
 
 
 def test_sigterm_finalises_selected_topics(rclpy_context, spin_node, node_process, tmp_path):
