@@ -41,10 +41,10 @@ def path_times(points: Sequence[Sequence[float]], start: Optional[Sequence[float
     :return: (m,) strictly increasing times (non-decreasing only when min_dt is 0 and points
         repeat)
     """
+    if len(points) == 0:
+        return np.zeros(0)
     q = np.asarray(points, float).reshape(len(points), -1)
     v = np.asarray(speed_bounds, float)
-    if q.size == 0:
-        return np.zeros(0)
     if q.shape[1] != v.shape[0]:
         raise ValueError(f'{q.shape[1]} joints per point but {v.shape[0]} speed bounds')
     first = np.zeros((1, q.shape[1])) if start is None else \
