@@ -39,9 +39,12 @@ def _names(probe, name, ns, ready=None, timeout=STARTUP_TIMEOUT):
     :param ready: a name (topic or service) whose presence means the node finished building
     """
     def snapshot():
-        return ({t for t, _ in probe.get_publisher_names_and_types_by_node(name, ns)},
-                {t for t, _ in probe.get_subscriber_names_and_types_by_node(name, ns)},
-                {t for t, _ in probe.get_service_names_and_types_by_node(name, ns)})
+        try:
+            return ({t for t, _ in probe.get_publisher_names_and_types_by_node(name, ns)},
+                    {t for t, _ in probe.get_subscriber_names_and_types_by_node(name, ns)},
+                    {t for t, _ in probe.get_service_names_and_types_by_node(name, ns)})
+        except Exception:   # noqa: B902 - the node is not (yet) discovered by this probe
+            return set(), set(), set()
     if ready is not None:
         assert wait_for(lambda: any(ready in part for part in snapshot()), timeout, 0.1), \
             (name, ready, snapshot())
