@@ -153,8 +153,8 @@ def test_scene_api_and_resets(px100, scene):
     infos = {o.name: o for o in sim.objects()}
     assert set(infos) == {b.name for b in scene.bodies}
     cube = infos['red_cube']
-    assert (cube.kind, cube.shape, cube.size, cube.mass) == ('object', 'box',
-                                                              (0.028, 0.028, 0.028), 0.03)
+    expected = ('object', 'box', (0.028, 0.028, 0.028), 0.03)
+    assert (cube.kind, cube.shape, cube.size, cube.mass) == expected
     assert infos['table'].kind == 'table' and infos['pedestal'].kind == 'fixture'
     poses = sim.object_poses()
     assert set(poses) == set(infos)
