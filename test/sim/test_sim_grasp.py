@@ -134,10 +134,24 @@ def test_closing_on_air_holds_nothing(px100, scene):
 
 
 def test_same_commands_give_identical_object_poses(px100, scene):
-    """Determinism: the same scene and commands stepped twice -> bit-identical object poses."""
+    """
+    Determinism: the same scene and commands stepped twice -> bit-identical object poses.
+
+    The second run also reads held_object(), energy() and object_poses() every 33 steps, as a
+    node publishing the world does: reading never changes the motion.
+    """
     results = []
-    for _ in range(2):
+    for probe in (False, True):
         sim = ArmSimulator(px100, scene=scene)
+        if probe:
+            plain_step, count = sim.step, [0]
+
+            def step():
+                plain_step()
+                count[0] += 1
+                if count[0] % 33 == 0:
+                    sim.held_object(), sim.energy(), sim.object_poses()
+            sim.step = step
         _pick(sim, 'red_cube')
         _swing(sim)
         _grip(sim, 0.4, 1.0)                   # let go in mid-air: the cube falls and lands
