@@ -281,7 +281,7 @@ class Demo:
         return ok
 
     def pitch_for(self, xyz) -> float:
-        """Return the steepest pitch (top-down first) at which xyz and its approach are reachable."""
+        """Return the steepest pitch (top-down first) reaching xyz and its approach; else NaN."""
         for pitch in PITCHES:
             if all(self.bot.arm.set_ee_pose_components(
                     x=xyz[0], y=xyz[1], z=xyz[2] + dz, pitch=pitch, execute=False,

@@ -42,7 +42,7 @@ class WorldMarker:
     """
 
     ns: str
-    id: int
+    id: int  # noqa: A003 - the Marker field's name
     name: str
     shape: str
     scale: Tuple[float, float, float]
@@ -135,7 +135,7 @@ class ObjectPaths:
         default_factory=lambda: (np.zeros(0), []))
 
     def objects(self) -> List[str]:
-        """Return the names of the movable objects (ns 'objects'), sorted."""
+        """Return the movable objects' names (ns 'objects'), sorted."""
         return sorted(n for n, k in self.kinds.items() if k == MARKER_NS['object'])
 
 

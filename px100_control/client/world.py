@@ -110,7 +110,7 @@ class InterbotixWorldInterface:
         """
         markers = self._snapshot(timeout)
         if kind is not None and kind not in MARKER_NS:
-            raise InterbotixException(f"kind must be one of {sorted(MARKER_NS)} or None, "
+            raise InterbotixException(f'kind must be one of {sorted(MARKER_NS)} or None, '
                                       f'not {kind!r}')
         return sorted(n for n, m in markers.items()
                       if kind is None or m.ns == MARKER_NS[kind])

@@ -131,7 +131,8 @@ class SimDriverNode(Node):
             raise Px100Error(error)
         self.sim = ArmSimulator(self.model, SimConfig(
             control_rate=float(p['control_rate']), dynamics_divider=int(p['dynamics_divider']),
-            object_width=float(p['object_width'])), scene=WorldPublisher.load(scene_name, self.model))
+            object_width=float(p['object_width'])),
+            scene=WorldPublisher.load(scene_name, self.model))
         self._gain_joints = list(self.sim.command_joints)
         for joint in self._gain_joints:
             base = self.sim.gains(joint)      # defaults scaled to the joint's servo
@@ -710,7 +711,7 @@ class SimDriverNode(Node):
             self.world.publish_now(self.sim, self._stamp_now())
         response.success = True
         response.message = ('objects back to their initial poses' if self.world.has_objects
-                             else 'no objects in this scene')
+                            else 'no objects in this scene')
         self.get_logger().info(response.message)
         return response
 

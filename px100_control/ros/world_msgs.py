@@ -9,7 +9,7 @@ false, lifetime 0 = forever); ``markers_of`` reads one back (client, recorder).
 from typing import List, Sequence
 
 from builtin_interfaces.msg import Time
-from px100_control.bag.world import markers_from_decoded, MARKER_TYPE, WorldMarker
+from px100_control.bag.world import MARKER_TYPE, markers_from_decoded, WorldMarker
 from visualization_msgs.msg import Marker, MarkerArray
 
 

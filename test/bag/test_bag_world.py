@@ -57,14 +57,14 @@ def test_world_markers_ids_ns_and_tf_frames():
     assert markers[2].orientation == QY and markers[2].position == (0.2, 0.1, 0.0125)
     assert markers[1].scale == (0.06, 0.06, 0.05)
     tf = object_tf_entries(markers, 'px100')
-    assert [(p, c) for p, c, _, _ in tf] == [('px100/base_link', 'px100/objects/red_cube'),
-                                            ('px100/base_link', 'px100/objects/ball')]
+    assert [(p, c) for p, c, _, _ in tf] == [
+        ('px100/base_link', 'px100/objects/red_cube'), ('px100/base_link', 'px100/objects/ball')]
     assert tf[0][2] == (0.2, 0.1, 0.0125) and tf[0][3] == QY
     assert object_frame('', 'x') == 'objects/x'
 
 
 def test_placement_verdicts():
-    """placed within the tolerance; dropped when lifted but elsewhere; not picked otherwise."""
+    """Placed within the tolerance; dropped when lifted but elsewhere; not picked otherwise."""
     start, target = (0.2, 0.1, 0.0125), (0.2, -0.1, 0.0125)
     p = placement_verdict('a', start, (0.205, -0.097, 0.0125), target, heights=[0.05])
     assert p.verdict == 'placed' and p.error == pytest.approx(math.hypot(0.005, 0.003))
@@ -96,7 +96,7 @@ def _string_cdr(text):
 
 
 def _world_bag(bag_dir, seconds=2.0):
-    """A synthetic run: joint_states at 50 Hz, world/markers at 30 Hz, held_object changes."""
+    """Write a synthetic run: joint_states at 50 Hz, world/markers at 30 Hz, held changes."""
     latched = md.qos_profile(durability='transient_local', depth=1)
     with BagWriter(bag_dir) as bag:
         bag.add_topic('/px100/joint_states', 'sensor_msgs/msg/JointState', [md.qos_profile()])
@@ -170,8 +170,8 @@ def test_recorder_writes_world_topics_and_object_tf(rclpy_context, spin_node, tm
         for conn in reader.connections:
             qos[conn.topic] = conn.ext.offered_qos_profiles
         for conn, _, raw in reader.messages():
-            got.setdefault(conn.topic, []).append(store.deserialize_cdr(bytes(raw),
-                                                                         conn.msgtype))
+            got.setdefault(conn.topic, []).append(
+                store.deserialize_cdr(bytes(raw), conn.msgtype))
     assert len(got['/px100/world/markers']) == 20
     assert got['/px100/world/held_object'][0].data == 'red_cube'
     assert 'transient_local' in str(qos['/px100/world/markers']).lower()
@@ -189,7 +189,7 @@ def test_recorder_writes_world_topics_and_object_tf(rclpy_context, spin_node, tm
 
 @pytest.mark.ros
 def test_replay_publishes_world_topics(rclpy_context, spin_node, node_process, tmp_path):
-    """replay publishes world/markers (every one, in order) and the latched held_object."""
+    """Replay publishes world/markers (every one, in order) and the latched held_object."""
     from std_msgs.msg import String
     from visualization_msgs.msg import MarkerArray
     bag_dir = str(tmp_path / 'world')
@@ -205,7 +205,7 @@ def test_replay_publishes_world_topics(rclpy_context, spin_node, node_process, t
         recorded = [bytes(m.data) for m in reader.iter_raw(['/px100/world/markers'])]
     from rclpy.serialization import deserialize_message
     # compared decoded: CDR padding bytes are not defined (serializers leave them as they are)
-    assert [deserialize_message(d, MarkerArray) for _, d in
-            listener.got['/px100/world/markers']] == [deserialize_message(d, MarkerArray)
-                                                       for d in recorded]
+    received = [deserialize_message(d, MarkerArray)
+                for _, d in listener.got['/px100/world/markers']]
+    assert received == [deserialize_message(d, MarkerArray) for d in recorded]
     assert wait_until(lambda: listener.count('/px100/world/held_object') >= 1, 5.0)
