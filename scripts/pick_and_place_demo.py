@@ -398,6 +398,9 @@ def main(argv=None) -> int:
                              'direction (to see a bad grasp fail)')
     parser.add_argument('--gripper-pressure', type=float, default=1.0,
                         help='gripper pressure 0..1 (the grasp PWM)')
+    parser.add_argument('--json', default='',
+                        help='also write the outcome (per object: verdict, final, target, '
+                             'error [m]) to this JSON file')
     parser.add_argument('--bringup', choices=('thread', 'process'), default='thread',
                         help='run the nodes as threads of this process (default) or as child '
                              'processes (more robust on a loaded machine)')
@@ -494,6 +497,12 @@ def main(argv=None) -> int:
     print(f'bag:   {bag_dir}{hint}')
     for p in paths:
         print(f'plot:  {p}')
+    if args.json:
+        import json
+        with open(args.json, 'w', encoding='utf-8') as f:
+            json.dump({'scene': scene, 'seed': args.seed, 'jitter': args.jitter,
+                       'seconds': time.monotonic() - started, 'failed_steps': demo.failures,
+                       'objects': [p.__dict__ for p in placements]}, f, indent=1)
     return 0 if len(placed) == len(placements) else 1
 
 
