@@ -346,10 +346,12 @@ class SimDriverNode(Node):
                 self.world.rate = float(changed['world_rate'])
             if 'scene' in changed:
                 scene, self._pending_scene = self._pending_scene, None
-                self.sim.set_scene(scene)
+                old = self.sim       # a new plant: the arm at its sleep pose, the same gains
+                self.sim = ArmSimulator(self.model, old.config, scene=scene, gains={
+                    joint: old.gains(joint) for joint in self._gain_joints})
                 self.world.publish_now(self.sim, self._stamp_now())
-                self.get_logger().info(f"scene {changed['scene']!r} loaded; the arm and the "
-                                       'objects are back at their initial poses')
+                self.get_logger().info(f"scene {changed['scene']!r} loaded; the arm is at its "
+                                       'sleep pose, the objects at their initial poses')
             if 'dynamics_divider' in changed:
                 self.sim.config = _replace_config(self.sim.config,
                                                   dynamics_divider=int(
