@@ -39,9 +39,9 @@ if ROOT not in sys.path:
 #: where the default scene's objects go: the resting position of each object's centre [m] in
 #: the base frame (x, y; z = the object's starting height, the table). Other scenes: --targets.
 TARGETS = {
-    'red_cube': (0.12, -0.115),
-    'green_cube': (0.25, -0.05),
-    'blue_cylinder': (0.12, 0.115),
+    'red_cube': (0.12, -0.07),
+    'green_cube': (0.11, 0.0),
+    'blue_cylinder': (0.12, 0.07),
 }
 #: approach poses are this far [m] above the grasp
 APPROACH_HEIGHT = 0.05
@@ -53,6 +53,9 @@ RELEASE_HEIGHT = 0.002
 CRUISE_SPEED = 1.5
 #: pitches tried for a grasp, top-down first [rad]
 PITCHES = [math.pi / 2 - k * 0.1 for k in range(8)]
+#: a grasp pitch must also reach this much [m] farther out and higher: the vertical lines then
+#: stay away from the stretched-arm singularity (where the elbow would have to move too fast)
+REACH_MARGIN = 0.012
 
 
 class Trace:
@@ -282,10 +285,14 @@ class Demo:
 
     def pitch_for(self, xyz) -> float:
         """Return the steepest pitch (top-down first) reaching xyz and its approach; else NaN."""
+        r = float(np.hypot(xyz[0], xyz[1]))
+        out = (r + REACH_MARGIN) / r if r > 1e-6 else 1.0
         for pitch in PITCHES:
             if all(self.bot.arm.set_ee_pose_components(
-                    x=xyz[0], y=xyz[1], z=xyz[2] + dz, pitch=pitch, execute=False,
-                    moving_time=30.0)[1] for dz in (0.0, APPROACH_HEIGHT)):
+                    x=xyz[0] * k, y=xyz[1] * k, z=xyz[2] + dz, pitch=pitch, execute=False,
+                    moving_time=30.0)[1]
+                    for k, dz in ((1.0, 0.0), (1.0, APPROACH_HEIGHT), (out, 0.0),
+                                  (out, APPROACH_HEIGHT + REACH_MARGIN))):
                 return pitch
         return math.nan
 

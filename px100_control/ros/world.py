@@ -59,7 +59,7 @@ class WorldPublisher:
                                     f'not {scene!r}')
         if not scene.strip():
             return None
-        from px100_control.sim import load_scene
+        from px100_control.sim.scene import load_scene
         return load_scene(scene.strip(), robot=robot)
 
     def _bodies(self, sim) -> List:

@@ -29,22 +29,28 @@ def _script(model, start):
     q = None
     steps = []
 
-    def at(px, py, pz):
+    def pitch(px, py):       # the steepest pitch reaching the grasp and 5 cm above it
+        return next(p for p in np.arange(math.pi / 2, 0.5, -0.05)
+                    if ik_xyz_pitch(model, px, py, z, p) and
+                    ik_xyz_pitch(model, px, py, z + 0.05, p))
+
+    def at(px, py, pz, p):
         nonlocal q
-        sols = ik_xyz_pitch(model, px, py, pz, math.pi / 2, q)
+        sols = ik_xyz_pitch(model, px, py, pz, p, q)
         assert sols, (px, py, pz)
         q = np.array(sols[0][:4], dtype=float)
         return q
 
-    steps.append((0.6, None, +GRIP))                  # open
-    steps.append((1.5, at(x, y, z + 0.05), None))     # approach pick
-    steps.append((1.0, at(x, y, z), None))            # pick
-    steps.append((0.8, None, -GRIP))                  # grasp
-    steps.append((1.0, at(x, y, z + 0.05), None))     # lift
-    steps.append((1.5, at(tx, ty, z + 0.05), None))   # carry
-    steps.append((1.0, at(tx, ty, z + 0.002), None))  # place
-    steps.append((0.6, None, +GRIP))                  # release
-    steps.append((1.0, at(tx, ty, z + 0.05), None))   # retreat
+    pp, tp = pitch(x, y), pitch(tx, ty)
+    steps.append((0.6, None, +GRIP))                      # open
+    steps.append((1.5, at(x, y, z + 0.05, pp), None))     # approach pick
+    steps.append((1.0, at(x, y, z, pp), None))            # pick
+    steps.append((0.8, None, -GRIP))                      # grasp
+    steps.append((1.0, at(x, y, z + 0.05, pp), None))     # lift
+    steps.append((1.5, at(tx, ty, z + 0.05, tp), None))   # carry
+    steps.append((1.0, at(tx, ty, z + 0.002, tp), None))  # place
+    steps.append((0.6, None, +GRIP))                      # release
+    steps.append((1.0, at(tx, ty, z + 0.05, tp), None))   # retreat
     return steps
 
 
