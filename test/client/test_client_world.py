@@ -5,7 +5,6 @@ Objects listed by kind, poses in the base frame equal to the simulator's, unknow
 the held object seen while the gripper holds a cube, world reset puts it back; the Interbotix
 signatures are untouched (test_client_api_surface).
 """
-import math
 
 from client_support import pause, wait_until
 import numpy as np
@@ -50,12 +49,12 @@ def test_unknown_names_are_refused_clearly(bot):
 
 
 def test_pick_shows_held_object_and_world_reset_puts_it_back(bot):
-    """Grasp the green cube from above: held_object names it, it rises; world.reset restores it."""
+    """Grasp the green cube (pitch 1.27): held_object names it, it rises; world.reset restores it."""
     start = bot.world.get_object_pose('green_cube')[:3, 3].copy()
     assert bot.world.held_object() == ''
     x, y, z = start
     bot.gripper.release(delay=0.3)
-    assert bot.arm.set_ee_pose_components(x=x, y=y, z=z + 0.05, pitch=math.pi / 2,
+    assert bot.arm.set_ee_pose_components(x=x, y=y, z=z + 0.05, pitch=1.27,
                                           moving_time=1.5)[1], bot.arm.last_error
     assert bot.arm.set_ee_cartesian_trajectory(z=-0.05, moving_time=1.0), bot.arm.last_error
     bot.gripper.grasp(delay=0.8)
