@@ -165,6 +165,8 @@ def build_spec(robot, scene=None, timestep: float = 0.001):
     for joint in list(spec.joints):
         joint.solref_limit = list(STIFF_SOLREF)
         joint.solimp_limit = list(STIFF_SOLIMP)
+        joint.solref_friction = list(STIFF_SOLREF)     # Coulomb friction close to stiction
+        joint.solimp_friction = list(STIFF_SOLIMP)
         if gripper is not None and joint.name == gripper.joint:
             spec.delete(joint)
     for eq in spec.equalities:

@@ -55,8 +55,8 @@ def _mutate(raw, path, value):
 
 
 @pytest.mark.parametrize('path, value, words', [
-    (('objects', 0, 'colour'), [1, 0, 0, 1], "unknown key.*colour"),
-    (('lighting',), 'dim', "unknown key.*lighting"),
+    (('objects', 0, 'colour'), [1, 0, 0, 1], 'unknown key.*colour'),
+    (('lighting',), 'dim', 'unknown key.*lighting'),
     (('objects', 0, 'size'), [0.03, math.nan, 0.03], r'objects\[0\] \(red_cube\).size.*NaN'),
     (('objects', 1, 'mass'), 0.0, r'green_cube\).mass must be positive'),
     (('objects', 1, 'mass'), KeyError, r'green_cube\).mass is missing'),
