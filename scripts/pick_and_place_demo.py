@@ -48,7 +48,11 @@ APPROACH_HEIGHT = 0.05
 #: the grasp point is this far [m] above the object's centre (pads on the upper half)
 GRASP_ABOVE_CENTRE = 0.0
 #: the object is released this far [m] above its resting height at the target
-RELEASE_HEIGHT = 0.002
+RELEASE_HEIGHT = 0.003
+#: the gripper counts as closed when its finger gap changes less than this [m] in 0.1 s
+GRIPPER_STILL = 0.0002
+#: longest wait [s] for the gripper to close on an object
+GRASP_TIMEOUT = 2.5
 #: joint speed [rad/s] the demo plans long moves with (the px100 limit is pi)
 CRUISE_SPEED = 1.5
 #: pitches tried for a grasp, top-down first [rad]
@@ -283,11 +287,17 @@ class Demo:
             self.failures.append(label)
         return ok
 
-    def pitch_for(self, xyz) -> float:
-        """Return the steepest pitch (top-down first) reaching xyz and its approach; else NaN."""
+    def pitch_for(self, xyz, prefer: float = math.nan) -> float:
+        """
+        Return a pitch reaching xyz and its approach (with REACH_MARGIN); NaN if none does.
+
+        ``prefer`` first (the pick's pitch for the place: an object held a little off the
+        gripper's centre line then ends where it was picked relative to the gripper, not moved
+        by the change of pitch: measured 3 mm at 0.3 rad), then the steepest (top-down first).
+        """
         r = float(np.hypot(xyz[0], xyz[1]))
         out = (r + REACH_MARGIN) / r if r > 1e-6 else 1.0
-        for pitch in PITCHES:
+        for pitch in ([prefer] if math.isfinite(prefer) else []) + PITCHES:
             if all(self.bot.arm.set_ee_pose_components(
                     x=xyz[0] * k, y=xyz[1] * k, z=xyz[2] + dz, pitch=pitch, execute=False,
                     moving_time=30.0)[1]
@@ -326,6 +336,17 @@ class Demo:
                 moving_time=max(0.8, self.mt))
         return self.move(label, line)
 
+    def wait_gripper_still(self) -> None:
+        """Wait (simulated time) until the fingers stopped closing: on the object, or shut."""
+        g, core = self.bot.gripper, self.bot.core
+        last = g.get_finger_width()
+        for _ in range(int(GRASP_TIMEOUT / 0.1)):
+            core.sleep(0.1)
+            width = g.get_finger_width()
+            if abs(width - last) < GRIPPER_STILL:
+                return
+            last = width
+
     def move_object(self, name: str, target) -> bool:
         """Pick ``name`` where the world says it is and place it at ``target`` [m]."""
         position = self.bot.world.get_object_pose(name)[:3, 3]
@@ -336,7 +357,8 @@ class Demo:
             grasp[:2] += self.grasp_offset * tangential
         place = np.array(target, dtype=float) + np.array([0.0, 0.0, GRASP_ABOVE_CENTRE
                                                           + RELEASE_HEIGHT])
-        p_pitch, d_pitch = self.pitch_for(grasp), self.pitch_for(place)
+        p_pitch = self.pitch_for(grasp)
+        d_pitch = self.pitch_for(place, prefer=p_pitch)
         print(f'{name}: at {np.round(1000 * position, 1).tolist()} mm -> target '
               f'{np.round(1000 * np.asarray(target), 1).tolist()} mm '
               f'(pitch {p_pitch:.2f} / {d_pitch:.2f} rad)')
@@ -353,7 +375,8 @@ class Demo:
         if not ok:
             return False
         self.trace.phase('grasp')
-        g.grasp(delay=0.8)
+        g.grasp(delay=0.3)
+        self.wait_gripper_still()
         print(f'  grasp: finger gap {1000 * g.get_finger_width():.1f} mm, held: '
               f'{self.bot.world.held_object() or "nothing"}')
         ok = self.line('Approach Pick', APPROACH_HEIGHT) and \
