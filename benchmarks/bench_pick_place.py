@@ -7,7 +7,7 @@ the scene file's positions, the demo reads where they are from the world, picks 
 and places them; a run succeeds when all 3 objects end within 10 mm of their targets. Reports
 the success rate, the per-object error distribution and the run times, and writes
 ``benchmarks/results/pick_place.json``. Usage: ``python benchmarks/bench_pick_place.py
-[--runs 20] [--first-seed 0] [--jitter 0.005] [--bag]``; ``run(quick)`` for run_all.py
+[--runs 20] [--first-seed 0] [--jitter 0.005] [--bag] [--real-time-factor R]``; ``run(quick)`` for run_all.py
 (quick: 3 runs).
 """
 import argparse
@@ -65,13 +65,14 @@ def summarize(results) -> dict:
 
 
 def run(quick: bool = False, runs: int = 20, first_seed: int = 0, jitter: float = 0.005,
-        bag: bool = False) -> dict:
+        bag: bool = False, real_time_factor: float = 1.0) -> dict:
     """Run the benchmark; return the summary (with a Markdown table) and per-run results."""
     n = 3 if quick else runs
     results = []
     with tempfile.TemporaryDirectory(prefix='px100_pick_place_') as out_dir:
         for seed in range(first_seed, first_seed + n):
-            r = run_once(seed, jitter, out_dir, bag=bag)
+            r = run_once(seed, jitter, out_dir, bag=bag,
+                         extra=['--real-time-factor', str(real_time_factor)])
             results.append(r)
             worst = max((o['error'] for o in r['objects']), default=float('nan'))
             print(f"seed {seed}: exit {r['exit_code']}, "
@@ -80,6 +81,7 @@ def run(quick: bool = False, runs: int = 20, first_seed: int = 0, jitter: float 
                   + f' (worst {1000 * worst:.1f} mm, {r["wall_s"]:.0f} s)', flush=True)
     summary = summarize(results)
     summary['jitter_m'] = jitter
+    summary['real_time_factor'] = real_time_factor
     summary['markdown'] = (
         '| runs | 3/3 placed within 10 mm | verdicts | error median / max [mm] | run [s] |\n'
         '| --- | --- | --- | --- | --- |\n'
@@ -98,8 +100,11 @@ def main() -> int:
     parser.add_argument('--first-seed', type=int, default=0)
     parser.add_argument('--jitter', type=float, default=0.005)
     parser.add_argument('--bag', action='store_true', help='record a bag in every run')
+    parser.add_argument('--real-time-factor', type=float, default=1.0,
+                        help='simulation speed of the demo (< 1 on a loaded machine)')
     args = parser.parse_args()
-    summary = run(runs=args.runs, first_seed=args.first_seed, jitter=args.jitter, bag=args.bag)
+    summary = run(runs=args.runs, first_seed=args.first_seed, jitter=args.jitter, bag=args.bag,
+                  real_time_factor=args.real_time_factor)
     print(summary['markdown'])
     os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
     summary['date'] = time.strftime('%Y-%m-%d %H:%M')

@@ -39,9 +39,9 @@ if ROOT not in sys.path:
 #: where the default scene's objects go: the resting position of each object's centre [m] in
 #: the base frame (x, y; z = the object's starting height, the table). Other scenes: --targets.
 TARGETS = {
-    'red_cube': (0.12, -0.07),
-    'green_cube': (0.11, 0.0),
-    'blue_cylinder': (0.12, 0.07),
+    'blue_cylinder': (0.10, -0.08),     # across to the other side (moved first)
+    'green_cube': (0.11, 0.0),          # nearer the base
+    'red_cube': (0.10, 0.08),           # across, over the green cube's new place
 }
 #: approach poses are this far [m] above the grasp
 APPROACH_HEIGHT = 0.05
