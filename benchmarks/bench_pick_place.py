@@ -7,8 +7,8 @@ the scene file's positions, the demo reads where they are from the world, picks 
 and places them; a run succeeds when all 3 objects end within 10 mm of their targets. Reports
 the success rate, the per-object error distribution and the run times, and writes
 ``benchmarks/results/pick_place.json``. Usage: ``python benchmarks/bench_pick_place.py
-[--runs 20] [--first-seed 0] [--jitter 0.005] [--bag] [--real-time-factor R]``; ``run(quick)`` for run_all.py
-(quick: 3 runs).
+[--runs 20] [--first-seed 0] [--jitter 0.005] [--bag] [--real-time-factor R]``;
+``run(quick)`` for run_all.py (quick: 3 runs).
 """
 import argparse
 import json

@@ -49,7 +49,7 @@ def test_unknown_names_are_refused_clearly(bot):
 
 
 def test_pick_shows_held_object_and_world_reset_puts_it_back(bot):
-    """Grasp the green cube (pitch 1.27): held_object names it, it rises; world.reset restores it."""
+    """Grasp the green cube: held_object names it, it rises; world.reset puts it back."""
     start = bot.world.get_object_pose('green_cube')[:3, 3].copy()
     assert bot.world.held_object() == ''
     x, y, z = start
