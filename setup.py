@@ -33,6 +33,7 @@ setup(
         ('share/' + PACKAGE + '/urdf', _data('urdf/*')),
         ('share/' + PACKAGE + '/config', _data('config/*.yaml')),
         ('share/' + PACKAGE + '/config/robots', _data('config/robots/*')),
+        ('share/' + PACKAGE + '/config/scenes', _data('config/scenes/*')),
         ('share/' + PACKAGE + '/launch', _data('launch/*.launch.*')),
         # environment hooks (ROS_DISTRO), registered for colcon in colcon.pkg
         ('share/' + PACKAGE + '/environment', _data('environment/*')),
