@@ -313,12 +313,14 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
     executor = None
     try:
         try:
+            # the executor first: built after a signal shut the context down, its __init__
+            # fails half way and its __del__ prints a traceback
+            executor = make_executor(kind=executor_kind)
             nodes = list(build())
         except Exception:
             if shutting_down():
                 return 0
             raise
-        executor = make_executor(kind=executor_kind)
         for node in nodes:
             executor.add_node(node)
         # spin_once in a loop, not spin(): rclpy 7.1's EventsExecutor.spin() does not return

@@ -706,6 +706,7 @@ def main(args=None) -> int:
     node = None
     executor = None
     try:
+        executor = make_executor(kind=BAG_EXECUTOR)   # before the node: see common.run_nodes
         node = RecorderNode(
             output=options.output, topics=options.topics, all_topics=options.all,
             robot_only=options.robot_only,
@@ -713,7 +714,6 @@ def main(args=None) -> int:
             idle_timeout=options.idle_timeout, write_tf=not options.no_tf,
             tf_rate=options.tf_rate, write_description=not options.no_robot_description,
             compression=options.compression, flush_period=options.flush_period)
-        executor = make_executor(kind=BAG_EXECUTOR)
         executor.add_node(node)
         while keep_spinning() and not node.closed.is_set():
             executor.spin_once(timeout_sec=0.1)

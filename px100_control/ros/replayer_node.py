@@ -326,6 +326,7 @@ def main(args=None) -> int:
     executor = None
     status = 0
     try:
+        executor = make_executor(kind=BAG_EXECUTOR)   # before the node: see common.run_nodes
         node = ReplayerNode(options.bag, rate=options.rate, loop=options.loop,
                             topics=options.topics, remap=options.remap,
                             start_offset=options.start_offset, delay=options.delay,
@@ -333,7 +334,6 @@ def main(args=None) -> int:
                             min_subscribers=options.min_subscribers,
                             progress=not options.no_progress)
         node.start()
-        executor = make_executor(kind=BAG_EXECUTOR)
         executor.add_node(node)
         while keep_spinning() and not node.done.is_set():
             executor.spin_once(timeout_sec=0.1)
