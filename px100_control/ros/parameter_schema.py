@@ -264,11 +264,27 @@ TRAJECTORY_SERVER = NodeSchema('trajectory_server', COMMON + (
               'trajectory/status', low=1, high=100000),
 ))
 
+VIEWER = NodeSchema('viewer', COMMON + (
+    ParamSpec('host', 'string', '127.0.0.1', 'address the web server binds (not loopback: '
+              'read-only unless allow_remote_control)', read_only=True),
+    ParamSpec('port', 'integer', 8080, 'web server port', low=1, high=65535, read_only=True),
+    ParamSpec('read_only', 'bool', False, 'show the robot only: no sliders, buttons or gizmo',
+              read_only=True),
+    ParamSpec('allow_remote_control', 'bool', False, 'keep the controls when host is not '
+              'loopback', read_only=True),
+    ParamSpec('rate', 'double', 30.0, 'page update rate [Hz]', low=1.0, high=60.0,
+              read_only=True),
+    ParamSpec('trail_length', 'integer', 500, 'end-effector trail points kept', low=2,
+              high=100000, read_only=True),
+    ParamSpec('moving_time', 'double', 1.0, 'shortest duration of a move sent by a control '
+              '[s]', low=0.0, above_low=True),
+))
 RECORDER = NodeSchema('recorder', COMMON)
 REPLAYER = NodeSchema('replayer', COMMON)
 
 #: schema of every node, by node name
-SCHEMAS = {s.node: s for s in (SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, RECORDER, REPLAYER)}
+SCHEMAS = {s.node: s for s in (SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER, RECORDER,
+                                REPLAYER)}
 
 
 def register(schema: NodeSchema) -> NodeSchema:
