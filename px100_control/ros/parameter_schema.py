@@ -284,7 +284,7 @@ REPLAYER = NodeSchema('replayer', COMMON)
 
 #: schema of every node, by node name
 SCHEMAS = {s.node: s for s in (SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER, RECORDER,
-                                REPLAYER)}
+                               REPLAYER)}
 
 
 def register(schema: NodeSchema) -> NodeSchema:
