@@ -13,7 +13,7 @@ from px100_control.control.simulator import ArmSimulator
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
-from px100_control.sim.scene import load_scene, rpy_matrix
+from px100_control.sim.scene import available_scenes, load_scene, rpy_matrix
 import pytest
 
 STRONG, WEAK = -0.4, -0.25        # gripper efforts [N*m] (250 and 158 PWM)
@@ -191,6 +191,17 @@ def test_scene_api_and_resets(px100, scene):
     for body in scene.objects:                             # they rest where they were put
         np.testing.assert_allclose(sim.object_poses()[body.name][0], body.position, atol=1e-4)
     assert ArmSimulator(px100).objects() == [] and ArmSimulator(px100).held_object() is None
+
+
+@pytest.mark.parametrize('name', available_scenes())
+def test_every_scene_rests_in_the_simulator(px100, name):
+    """Each scene file runs: after 1 s with the arm at sleep every object rests where it was."""
+    scene = load_scene(name, px100)
+    sim = ArmSimulator(px100, scene=scene)
+    sim.advance(1000)
+    for body in scene.objects:
+        np.testing.assert_allclose(sim.object_poses()[body.name][0], body.position, atol=2e-4)
+    assert sim.held_object() is None
 
 
 def test_scene_out_of_reach_is_refused_by_the_simulator(px100, scene):
