@@ -102,6 +102,29 @@ def test_good_grasp_holds_through_a_fast_swing(px100, scene, name):
                                    atol=1e-4)
 
 
+def test_grasp_planned_at_the_nominal_pose_tolerates_jitter(px100, scene):
+    """The cube moved +-5 mm and turned +-10 deg, picked where the file says: 5 of 5 held."""
+    rng = np.random.default_rng(5)
+    nominal = np.array(scene.body('red_cube').position)
+    for _ in range(5):
+        dx, dy = rng.uniform(-0.005, 0.005, 2)
+        dyaw = rng.uniform(-math.radians(10), math.radians(10))
+        bodies = tuple(dataclasses.replace(
+            b, position=(b.position[0] + dx, b.position[1] + dy, b.position[2]),
+            rpy=(0.0, 0.0, b.rpy[2] + dyaw)) if b.name == 'red_cube' else b
+            for b in scene.bodies)
+        sim = ArmSimulator(px100, scene=dataclasses.replace(scene, bodies=bodies))
+        _grip(sim, 0.4, 1.5)
+        _move(sim, _ik(sim, nominal + [0.0, 0.0, 0.06]), 1.5)
+        _move(sim, _ik(sim, nominal), 1.0)
+        _grip(sim, STRONG, 2.5)
+        _move(sim, _ik(sim, nominal + [0.0, 0.0, 0.06]), 1.0)
+        before = _in_tool(sim, 'red_cube')
+        _swing(sim)
+        assert sim.held_object() == 'red_cube', (dx, dy, dyaw)
+        assert np.linalg.norm(_in_tool(sim, 'red_cube') - before) < 0.002
+
+
 def test_off_centre_weak_grasp_fails(px100, scene):
     """12 mm off centre along the fingers, 158 PWM: one pad pushes the cube, nothing lifts it."""
     sim = ArmSimulator(px100, scene=scene)
