@@ -1,8 +1,13 @@
 """
 End-effector waypoint paths: straight Cartesian segments cut so that no joint step exceeds a max.
 
-Between two waypoints the end-effector position moves on a straight line and its orientation on
-the shortest rotation (geodesic, R0 exp(s log(R0^T R1))), s = k / N, k = 1..N. Each point is
+Between two waypoints the end-effector position moves on a straight line, s = k / N, k = 1..N,
+and its orientation either by linear 'sxyz' roll, pitch, yaw (``orientation='rpy'``, the
+default and Interbotix's convention: a tool with zero roll keeps zero roll, which a 4-DOF arm
+needs), by 'sxyz' angles with the yaw measured from the azimuth atan2(y, x) of the position
+(``'azimuth'``: for arms with fewer than 6 joints, whose heading follows the position, as
+Interbotix sets yaw = atan2(y, x) for them), or on the shortest rotation (``'geodesic'``,
+R0 exp(s log(R0^T R1))). Each point is
 solved by IK seeded with the previous point's solution (no branch jumps). N starts at
 ceil(max_i |q1_i - q0_i| / max_joint_step) from the waypoints' own IK solutions (joint-space
 distance over the step bound) and grows segment by segment until every joint step between
@@ -16,11 +21,12 @@ ik_service. Poses are (4, 4) in the base frame [m]; joints [rad] (prismatic [m])
 """
 from dataclasses import dataclass, field
 import math
-from typing import Callable, List, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from px100_control.errors import InvalidInputError, Px100Error
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import exp_so3, log_so3
 from px100_control.kinematics.solve import check_pose, solve_path
 
@@ -55,24 +61,43 @@ class WaypointPath:
         return float(np.abs(np.diff(self.q, axis=0)).max()) if len(self.q) > 1 else 0.0
 
 
-def interpolate_pose(T0: np.ndarray, T1: np.ndarray, s: float) -> np.ndarray:
+ORIENTATIONS = ('rpy', 'azimuth', 'geodesic')
+
+
+def interpolate_pose(T0: np.ndarray, T1: np.ndarray, s: float,
+                     orientation: str = 'rpy') -> np.ndarray:
     """
     Return the pose a fraction s in [0, 1] of the way from T0 to T1.
 
-    Position linear, rotation along the geodesic R0 exp(s log(R0^T R1)).
+    Position linear; rotation by linear 'sxyz' angles (each difference taken in [-pi, pi)),
+    'sxyz' angles with yaw relative to the position's azimuth, or along the geodesic.
     """
     T = np.eye(4)
     T[:3, 3] = (1.0 - s) * T0[:3, 3] + s * T1[:3, 3]
+    if orientation in ('rpy', 'azimuth'):
+        a0 = np.array(matrix_to_euler_sxyz(T0[:3, :3]))
+        a1 = np.array(matrix_to_euler_sxyz(T1[:3, :3]))
+        if orientation == 'azimuth':
+            a0[2] -= math.atan2(T0[1, 3], T0[0, 3])
+            a1[2] -= math.atan2(T1[1, 3], T1[0, 3])
+        d = np.remainder(a1 - a0 + math.pi, 2 * math.pi) - math.pi
+        a = a0 + s * d
+        if orientation == 'azimuth':
+            a[2] += math.atan2(T[1, 3], T[0, 3])
+        T[:3, :3] = euler_sxyz_to_matrix(*a)
+        return T
+    if orientation != 'geodesic':
+        raise InvalidInputError(f'orientation must be one of {ORIENTATIONS}, got {orientation!r}')
     w = log_so3(T0[:3, :3].T @ T1[:3, :3])
     angle = float(np.linalg.norm(w))
-    R = T0[:3, :3] if angle < 1e-12 else T0[:3, :3] @ exp_so3(w / angle, s * angle)
-    T[:3, :3] = R
+    T[:3, :3] = T0[:3, :3] if angle < 1e-12 else T0[:3, :3] @ exp_so3(w / angle, s * angle)
     return T
 
 
-def segment_poses(T0: np.ndarray, T1: np.ndarray, count: int) -> List[np.ndarray]:
+def segment_poses(T0: np.ndarray, T1: np.ndarray, count: int,
+                  orientation: str = 'rpy') -> List[np.ndarray]:
     """Return the ``count`` poses k / count of the way from T0 to T1, k = 1..count (T1 exact)."""
-    out = [interpolate_pose(T0, T1, k / count) for k in range(1, count)]
+    out = [interpolate_pose(T0, T1, k / count, orientation) for k in range(1, count)]
     out.append(np.array(T1, dtype=float))
     return out
 
@@ -122,7 +147,8 @@ def _check_inputs(q_start, T_start, waypoints, max_joint_step):
 
 
 def plan_ee_waypoints(solve: PathSolver, q_start, T_start, waypoints, max_joint_step: float,
-                      max_points: int = 5000, max_rounds: int = 12) -> WaypointPath:
+                      max_points: int = 5000, max_rounds: int = 12,
+                      orientation: str = 'rpy') -> WaypointPath:
     """
     Plan straight Cartesian segments through ``waypoints`` with every joint step bounded.
 
@@ -131,11 +157,14 @@ def plan_ee_waypoints(solve: PathSolver, q_start, T_start, waypoints, max_joint_
     :param waypoints: (4, 4) poses [m] in the base frame, in order
     :param max_joint_step: the largest allowed change of any joint between points [rad] (> 0)
     :param max_points: refuse paths that would need more points than this
+    :param orientation: 'rpy' or 'geodesic' (see module docstring)
     :raises InvalidInputError: malformed input (names what was wrong)
     :raises CartesianPathError: a waypoint or an interpolated pose has no IK solution, or the
         steps near some point do not shrink below the bound (a singularity or branch change)
     """
     q0, T0, Ws, step = _check_inputs(q_start, T_start, waypoints, max_joint_step)
+    if orientation not in ORIENTATIONS:
+        raise InvalidInputError(f'orientation must be one of {ORIENTATIONS}, got {orientation!r}')
     Qw, reason = solve(Ws, q0)
     if len(Qw) < len(Ws):
         raise CartesianPathError(f'waypoint {len(Qw)} has no IK solution: {reason}')
@@ -151,7 +180,7 @@ def plan_ee_waypoints(solve: PathSolver, q_start, T_start, waypoints, max_joint_
                 f'{int(np.argmax(counts))}?)')
         poses, seg = [], []
         for k, (Ta, Tb) in enumerate(zip(starts, Ws)):
-            poses += segment_poses(Ta, Tb, counts[k])
+            poses += segment_poses(Ta, Tb, counts[k], orientation)
             seg += [k] * counts[k]
         Q, reason = solve(poses, q0)
         if len(Q) < len(poses):
@@ -175,8 +204,16 @@ def plan_ee_waypoints(solve: PathSolver, q_start, T_start, waypoints, max_joint_
 
 
 def ee_waypoint_path(model, q_start, waypoints, max_joint_step: float, mode: str = 'pitch',
-                     max_points: int = 5000, **ik_kwargs) -> WaypointPath:
-    """Return ``plan_ee_waypoints`` from q_start on a robot model, with its own ``solve_path``."""
+                     max_points: int = 5000, orientation: Optional[str] = None,
+                     **ik_kwargs) -> WaypointPath:
+    """
+    Return ``plan_ee_waypoints`` from q_start on a robot model, with its own ``solve_path``.
+
+    ``orientation`` defaults to 'azimuth' for arms with fewer than 6 joints, else 'rpy'.
+    """
+    if orientation is None:
+        orientation = 'azimuth' if model.dof < 6 else 'rpy'
     q0 = model.check_vector(q_start, 'q_start')
     return plan_ee_waypoints(model_path_solver(model, mode, **ik_kwargs), q0, model.fk(q0),
-                             waypoints, max_joint_step, max_points=max_points)
+                             waypoints, max_joint_step, max_points=max_points,
+                             orientation=orientation)

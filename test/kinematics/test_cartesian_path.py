@@ -1,4 +1,4 @@
-"""End-effector waypoint paths: straight segments, every joint step under the bound, clear errors."""
+"""End-effector waypoint paths: straight segments, joint steps under the bound, clear errors."""
 import math
 
 import numpy as np
@@ -6,6 +6,7 @@ from px100_control.errors import InvalidInputError
 from px100_control.kinematics.cartesian import (CartesianPathError, ee_waypoint_path,
                                                 interpolate_pose, plan_ee_waypoints,
                                                 step_count)
+from px100_control.kinematics.rotations import matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import log_so3, rot_x, rot_y, rot_z, transform
 from px100_control.models.registry import load_robot
 import pytest
@@ -30,17 +31,42 @@ def _on_segment(p, a, b, tol=1e-9):
     return -tol <= s <= 1 + tol and np.linalg.norm(a + s * ab - p) < tol
 
 
-def test_interpolate_pose_is_linear_and_geodesic():
-    """Position linear in s; rotation angle from T0 linear in s, same axis; ends exact."""
+def test_interpolate_pose_geodesic():
+    """Geodesic: position linear in s; rotation angle from T0 linear in s, same axis."""
     T0 = transform(rot_x(0.2), [0.1, 0.0, 0.2])
     T1 = transform(rot_z(1.0) @ rot_y(-0.7), [0.3, -0.2, 0.1])
-    np.testing.assert_allclose(interpolate_pose(T0, T1, 0.0), T0, atol=1e-12)
-    np.testing.assert_allclose(interpolate_pose(T0, T1, 1.0), T1, atol=1e-12)
+    np.testing.assert_allclose(interpolate_pose(T0, T1, 0.0, 'geodesic'), T0, atol=1e-12)
+    np.testing.assert_allclose(interpolate_pose(T0, T1, 1.0, 'geodesic'), T1, atol=1e-12)
     w = log_so3(T0[:3, :3].T @ T1[:3, :3])
     for s in (0.25, 0.5, 0.8):
-        T = interpolate_pose(T0, T1, s)
+        T = interpolate_pose(T0, T1, s, 'geodesic')
         np.testing.assert_allclose(T[:3, 3], (1 - s) * T0[:3, 3] + s * T1[:3, 3], atol=1e-12)
         np.testing.assert_allclose(log_so3(T0[:3, :3].T @ T[:3, :3]), s * w, atol=1e-9)
+
+
+def test_interpolate_pose_rpy_keeps_zero_roll():
+    """'rpy': linear roll, pitch, yaw (shortest way round in yaw); zero roll stays zero."""
+    T0 = transform(rot_z(3.0) @ rot_y(0.2), [0.1, 0.0, 0.2])
+    T1 = transform(rot_z(-3.0) @ rot_y(0.9), [0.3, -0.2, 0.1])
+    np.testing.assert_allclose(interpolate_pose(T0, T1, 0.0), T0, atol=1e-12)
+    np.testing.assert_allclose(interpolate_pose(T0, T1, 1.0), T1, atol=1e-12)
+    for s in (0.25, 0.5, 0.8):
+        roll, pitch, yaw = matrix_to_euler_sxyz(interpolate_pose(T0, T1, s)[:3, :3])
+        assert abs(roll) < 1e-12
+        assert pitch == pytest.approx(0.2 + 0.7 * s)
+        assert math.cos(yaw - (3.0 + s * (2 * math.pi - 6.0))) == pytest.approx(1.0)
+    with pytest.raises(InvalidInputError, match='orientation'):
+        interpolate_pose(T0, T1, 0.5, 'slerp')
+
+
+def test_interpolate_pose_azimuth_heads_toward_the_position():
+    """'azimuth': the yaw of every point is its position's azimuth when both ends' are."""
+    T0, T1 = _down(0.2, 0.15, 0.1, 0.4), _down(0.1, -0.2, 0.2, 1.0)
+    for s in (0.2, 0.5, 0.9):
+        T = interpolate_pose(T0, T1, s, 'azimuth')
+        roll, pitch, yaw = matrix_to_euler_sxyz(T[:3, :3])
+        assert abs(roll) < 1e-12 and pitch == pytest.approx(0.4 + 0.6 * s)
+        assert yaw == pytest.approx(math.atan2(T[1, 3], T[0, 3]))
 
 
 def test_step_count_is_the_max_joint_distance_over_the_bound():
@@ -100,7 +126,7 @@ def test_seven_dof_full_pose_path():
     q0 = np.radians([-12.73, 68.82, -60.13, -81.36, -44.14, -41.83, -55.14])
     T0 = m.fk(q0)
     T1 = transform(T0[:3, :3] @ rot_x(0.3), T0[:3, 3] + [0.0, 0.05, 0.03])
-    path = ee_waypoint_path(m, q0, [T1], 0.02, mode='full')
+    path = ee_waypoint_path(m, q0, [T1], 0.02, mode='full', orientation='geodesic')
     assert path.max_step <= 0.02 * (1 + 1e-9)
     for q, T in zip(path.q, path.poses):
         assert np.abs(m.fk(q) - T).max() < 1e-6
