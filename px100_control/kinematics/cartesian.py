@@ -147,7 +147,7 @@ def _check_inputs(q_start, T_start, waypoints, max_joint_step):
 
 
 def plan_ee_waypoints(solve: PathSolver, q_start, T_start, waypoints, max_joint_step: float,
-                      max_points: int = 5000, max_rounds: int = 12,
+                      max_points: int = 5000, max_rounds: int = 16,
                       orientation: str = 'rpy') -> WaypointPath:
     """
     Plan straight Cartesian segments through ``waypoints`` with every joint step bounded.
@@ -196,8 +196,10 @@ def plan_ee_waypoints(solve: PathSolver, q_start, T_start, waypoints, max_joint_
             return WaypointPath(q=Qall, poses=[T0] + poses,
                                 segment=np.concatenate([[-1], seg_arr]), counts=counts,
                                 first_counts=first)
+        # at most doubling: a branch jump at a coarse spacing must not inflate the count
         counts = [c if w <= step * (1.0 + 1e-9) else
-                  max(c + 1, int(math.ceil(c * w / step * 1.05))) for c, w in zip(counts, worst)]
+                  max(c + 1, min(2 * c, int(math.ceil(c * w / step * 1.05))))
+                  for c, w in zip(counts, worst)]
     raise CartesianPathError(
         f'the joint steps did not shrink under {step:g} rad in {max_rounds} refinements '
         '(a singularity or a branch change along the path?)')
