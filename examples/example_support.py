@@ -30,7 +30,7 @@ class Comparison:
     label: str
     ours: np.ndarray
     doc: np.ndarray
-    tol: float
+    tol: np.ndarray
     why: str = ''
 
     @property
@@ -69,10 +69,11 @@ class Report:
     def compare(self, label: str, ours, doc, tol: float, why: str = '') -> Comparison:
         """Print ours beside the document's; ``why`` explains a difference beyond ``tol``."""
         c = Comparison(label, np.atleast_1d(np.asarray(ours, dtype=float)),
-                       np.atleast_1d(np.asarray(doc, dtype=float)), float(tol), why)
+                       np.atleast_1d(np.asarray(doc, dtype=float)), np.asarray(tol, float), why)
         self.comparisons.append(c)
+        t = f'{float(c.tol):g}' if c.tol.ndim == 0 else np.array2string(c.tol, precision=2)
         print(f'  {label}\n    ours     {_fmt(c.ours)}\n    document {_fmt(c.doc)}'
-              f'   (tolerance {tol:g}) -> {c.status}')
+              f'   (tolerance {t}) -> {c.status}')
         return c
 
     def save(self, fig, filename: str) -> str:

@@ -50,7 +50,7 @@ PID_DOC = [((100, 0, 0), (0.05, 0.025), (0.0, 0.005), (2.0, 0.5)),
 
 def compute_aik(ee_pose, fixed_wrist: bool = False) -> np.ndarray:
     """
-    Return the document's compute_aik(ee_pose) [rad] (MATLAB ported line by line).
+    Return the joint values [rad] of the document's compute_aik, ported line by line.
 
     ``fixed_wrist`` uses atan2(+T04(3,1), -T04(3,2)) for theta4: see the wrist section.
     """
@@ -108,14 +108,14 @@ def load_pid_experiment():
 
 
 def section_aik(rep, m):
-    rep.section('compute_aik: the document\'s analytic IK from a 4x4 pose (tool T4E)')
+    rep.section("compute_aik: the document's analytic IK from a 4x4 pose (tool T4E)")
     q = np.array(ISSUE_Q)
-    direct = compute_aik(m.fk(q))
+    direct_q = compute_aik(m.fk(q))
     pitch = float(q[1:].sum())
     print(f'  q = {ISSUE_Q} (pitch q2 + q3 + q4 = {pitch:.2f} rad) -> ee_pose = FK(q)')
-    rep.compare('direct port: waist, shoulder, elbow [rad]', direct[:3], q[:3], 1e-3)
-    rep.compare('direct port: wrist [rad]', direct[3], q[3], 1e-3,
-                why=f'off by {direct[3] - q[3]:+.4f} = -2 x pitch ({-2 * pitch:+.4f}): '
+    rep.compare('direct port: waist, shoulder, elbow [rad]', direct_q[:3], q[:3], 1e-3)
+    rep.compare('direct port: wrist [rad]', direct_q[3], q[3], 1e-3,
+                why=f'off by {direct_q[3] - q[3]:+.4f} = -2 x pitch ({-2 * pitch:+.4f}): '
                     'theta4 = atan2(-T04(3,1), -T04(3,2)) - theta2 - theta3 takes the pitch '
                     'with the sign of the URDF frames while theta2 and theta3 are measured the '
                     'other way (the last line negates them); right only at pitch 0')
@@ -151,13 +151,13 @@ def section_aik(rep, m):
                     np.median(e), 0.0, 2e-3)
         rep.compare(f'{label}, max [rad]', e.max(), 0.0, 2e-3, why=amplified)
     worst = float(np.median(e_fixed))
-    rep.note(f'the remaining error (median {worst:.1e} rad) comes from the rounded constants: l2 = 0.1059 '
-             f'(URDF hypot(0.035, 0.1) = {math.hypot(0.035, 0.1):.6f}), tool 0.1136 (URDF '
-             f'0.113575), offset 1.2341 (atan2(0.1, 0.035) = {math.atan2(0.1, 0.035):.6f}); '
+    rep.note(f'the remaining error (median {worst:.1e} rad) comes from the rounded constants: '
+             f'l2 = 0.1059 (URDF hypot(0.035, 0.1) = {math.hypot(0.035, 0.1):.6f}), '
+             f'tool 0.1136 (URDF 0.113575), offset 1.2341 (atan2(0.1, 0.035) = {math.atan2(0.1, 0.035):.6f}); '
              'compute_aik has one elbow branch (theta3 = atan2(-sqrt(1 - c3^2), c3)) and '
              'assumes the wrist centre in front of the waist axis (r >= 0); the sweep keeps '
              'the configurations it covers; solve_ik returns every branch')
-    rep.values['aik_direct'] = direct
+    rep.values['aik_direct'] = direct_q
 
 
 def section_waypoints(rep, m):
@@ -230,30 +230,40 @@ def section_pid(rep, quick: bool):
         print(f'  {"/".join(map(str, r.gains)):12s}  {r.steady_state_error:+.4f}         '
               f'{r.overshoot:.4f}           {r.settling_time:.2f}')
     by = {r.gains: r for r in results}
+    p_only = by[(100, 0, 0)]
+    g100 = PidGains.from_dynamixel(100, 0, 0)
+    hold100 = abs(p_only.steady_state_error) * g100.p
     for gains, (ss, ss_tol), (ov, ov_tol), (st, st_tol) in PID_DOC:
         r = by[gains]
         g = PidGains.from_dynamixel(*gains)
         held = abs(r.steady_state_error) * g.p
         label = '/'.join(map(str, gains))
-        why_ss = (f'P is {g.p:.3f} N*m/rad in SI (register {gains[0]}, ROBOTIS scaling), so '
-                  f'{abs(r.steady_state_error):.3f} rad is the error at which P supplies '
-                  f'{held:.3f} N*m, the gravity and friction torque the shoulder must hold here;'
-                  ' the document\'s error implies a lighter load or another scaling')
+        why_st = 'settling depends on the step size and the load, which the document omits'
         if gains[1]:
-            why_ss = why_st = (f'the integral gain is {g.i:.3f} N*m/(rad s) in SI: it builds '
-                               'the holding torque slowly, so the error goes (as the document '
-                               'says) but only after several seconds')
+            t_est = hold100 / (g.i * abs(p_only.steady_state_error))
+            why_ss = why_st = (
+                f'the integral gain is {g.i:.3f} N*m/(rad s) in SI (register {gains[1]}): '
+                f'building the {hold100:.2f} N*m that P alone lacked from a '
+                f'{abs(p_only.steady_state_error):.2f} rad error takes about {t_est:.1f} s, so '
+                'the error goes (as the document says) but only after several seconds')
         elif gains[2]:
             why_ss = (f'with D the approach is slow and stops where P ({g.p:.2f} N*m/rad) x '
                       f'{abs(r.steady_state_error):.3f} rad = {held:.3f} N*m no longer beats '
-                      'gravity plus Coulomb friction; the document reports none (no gravity '
-                      'or friction in its plant?)')
-            why_st = 'settling depends on the step size and the load, which the document omits'
+                      'gravity plus Coulomb friction; the document reports none (a plant with '
+                      'little gravity load or friction?)')
+        elif r.steady_state_error < 0:
+            why_ss = (f'it ended {abs(r.steady_state_error):.3f} rad past the target: P x error = '
+                      f'{held:.3f} N*m is inside the Coulomb friction band, so the joint stays '
+                      'where its overshoot left it')
         else:
-            why_st = 'settling depends on the step size and the load, which the document omits'
+            why_ss = (f'P is {g.p:.3f} N*m/rad in SI (register {gains[0]}, ROBOTIS scaling): it '
+                      f'stops {abs(r.steady_state_error):.3f} rad short, where P supplies the '
+                      f'{held:.3f} N*m of gravity and friction the shoulder must hold there; the '
+                      f"document's {ss} rad implies a load of {ss * g.p:.3f} N*m (an almost "
+                      'unloaded joint) or another gain scaling')
         why_ov = ('overshoot depends on the damping the plant has on its own (motor back-EMF '
                   'here) and on the step size, which the document omits')
-        rep.compare(f'{label}: steady-state error [rad]', abs(r.steady_state_error), ss, ss_tol,
+        rep.compare(f'{label}: steady-state error [rad]', r.steady_state_error, ss, ss_tol,
                     why=why_ss)
         rep.compare(f'{label}: overshoot [rad]', r.overshoot, ov, ov_tol, why=why_ov)
         rep.compare(f'{label}: settling time [s]', r.settling_time, st, st_tol, why=why_st)

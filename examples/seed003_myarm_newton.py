@@ -59,7 +59,7 @@ def main(argv=None):
     """Run the example; return its Report."""
     args, rep = start(NAME, 'myArm 300 Pi: Newton-Raphson IK for grasp and place', argv)
     m = load_robot('myarm300pi')
-    rep.section('Model: the document\'s screw axes (omega_i, q_i) and d1, d3, d5, d7')
+    rep.section("Model: the document's screw axes (omega_i, q_i) and d1, d3, d5, d7")
     for i, p in enumerate(AXIS_POINTS):
         w, v = m.S_list[:3, i], m.S_list[3:, i]
         # a point on the axis satisfies v = -w x p

@@ -45,7 +45,7 @@ def main(argv=None):
     args, rep = start(NAME, 'RRRR arm: FK equations, elbow-up and elbow-down IK', argv)
     m = load_robot('rrrr')
     P = rrrr.parameters(m)
-    rep.section('Forward model: the document\'s X, Y, Z equations vs the robot model')
+    rep.section("Forward model: the document's X, Y, Z equations vs the robot model")
     worst = max(np.abs(rrrr.fk_position(P, q) - m.fk(q)[:3, 3]).max()
                 for q in m.random_configurations(200, rng=1))
     rep.compare('max |FK(model) - document equations| over 200 configurations [m]', worst, 0.0,
