@@ -262,11 +262,16 @@ def run_script(module_name: str):
         sampler.attach(self.core)
         sampler.move = len(moves)
         ok = original(self, joint_positions, *args, **kwargs)
-        time.sleep(0.3)        # let the gripper settle on the target before reading
-        T = self.core.measured_ee_pose()
+        fk = self.core.model.fk(self.get_joint_commands())[:3, 3].copy()
+        end = time.monotonic() + 2.0       # the servos close the last fraction after SUCCEEDED
+        while True:
+            T = self.core.measured_ee_pose()
+            if time.monotonic() > end or (T is not None and
+                                          np.linalg.norm(T[:3, 3] - fk) < 0.3e-3):
+                break
+            time.sleep(0.02)
         moves.append({'command': np.asarray(joint_positions, float), 'ok': ok,
-                      'ee': None if T is None else T[:3, 3].copy(),
-                      'fk': self.core.model.fk(self.get_joint_commands())[:3, 3].copy()})
+                      'ee': None if T is None else T[:3, 3].copy(), 'fk': fk})
         return ok
 
     cls.set_joint_positions = recording

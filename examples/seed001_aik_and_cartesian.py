@@ -153,7 +153,8 @@ def section_aik(rep, m):
     worst = float(np.median(e_fixed))
     rep.note(f'the remaining error (median {worst:.1e} rad) comes from the rounded constants: '
              f'l2 = 0.1059 (URDF hypot(0.035, 0.1) = {math.hypot(0.035, 0.1):.6f}), '
-             f'tool 0.1136 (URDF 0.113575), offset 1.2341 (atan2(0.1, 0.035) = {math.atan2(0.1, 0.035):.6f}); '
+             'tool 0.1136 (URDF 0.113575), offset 1.2341 (atan2(0.1, 0.035) = '
+             f'{math.atan2(0.1, 0.035):.6f}); '
              'compute_aik has one elbow branch (theta3 = atan2(-sqrt(1 - c3^2), c3)) and '
              'assumes the wrist centre in front of the waist axis (r >= 0); the sweep keeps '
              'the configurations it covers; solve_ik returns every branch')
@@ -287,7 +288,12 @@ def main(argv=None):
     m = load_robot('px100')
     section_aik(rep, m)
     section_waypoints(rep, m)
-    if not args.skip_pid:
+    if args.skip_pid:
+        pass
+    elif not os.path.exists(os.path.join(ROOT, 'scripts', 'pid_experiment.py')):
+        rep.note('the PID table needs scripts/pid_experiment.py: run this example from a '
+                 'source checkout of px100_control')
+    else:
         section_pid(rep, args.quick)
     return rep.finish()
 

@@ -10,9 +10,11 @@ import os
 import subprocess
 import sys
 
-from conftest import EXAMPLES
 import numpy as np
 import pytest
+
+EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__)))), 'examples')
 
 
 def _run(name, tmp_path, *extra):
