@@ -28,6 +28,10 @@ Where Interbotix is broken, this does better (documented deviations):
   waypoints as one trajectory; ``wp_moving_time`` / ``wp_accel_time`` (servo profile per waypoint
   in Interbotix) are accepted and unused; ``moving_time`` < ``wp_period`` returns False instead
   of raising NameError.
+
+px100_control extensions (no Interbotix equivalent): ``wait_for_last_goal``,
+``last_goal_status``, ``last_error``, and ``set_ee_waypoints`` (straight end-effector lines
+through waypoints with a maximum joint step between points).
 """
 import math
 from typing import Any, List, Optional, Sequence, Tuple
