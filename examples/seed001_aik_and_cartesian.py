@@ -9,17 +9,22 @@ Seed 001: PincherX-100 analytic IK from a 4x4 pose, waypoints, Cartesian steps, 
    max joint distance / max step, linear positions, IK on each point) and with
    ``px100_control.kinematics.cartesian`` (the same rule, refined until every step holds; what
    ``bot.arm.set_ee_waypoints`` runs).
-3. The six PID gain sets on the project's simulated shoulder (scripts/pid_experiment.py), beside
+3. The same waypoints executed on the simulated px100 (started in this process) with
+   ``bot.arm.set_ee_waypoints`` (``--no-robot`` leaves this out).
+4. The six PID gain sets on the project's simulated shoulder (scripts/pid_experiment.py), beside
    the document's table, with each gap explained from the measured numbers.
 
 The document gives no pick and drop coordinates: the ones here are this example's choice.
-Figures: the end-effector path and the joint steps (2), the six step responses (3).
+Figures: the end-effector path and the joint steps (2), the measured path (3), the six step
+responses (4).
 
-Run: python examples/seed001_aik_and_cartesian.py [--out DIR] [--quick]
+Run: python examples/seed001_aik_and_cartesian.py [--out DIR] [--quick] [--no-robot]
 """
 import importlib.util
 import math
 import os
+import threading
+import time
 
 from example_support import ROOT, set_axes_equal, start
 import matplotlib.pyplot as plt
@@ -96,6 +101,70 @@ def document_interpolation(model, seq, max_step):
         counts.append(n)
         qs += [compute_aik(T, True) for T in segment_poses(Ta, Tb, n, 'azimuth')]
     return np.array(qs), counts
+
+
+def section_robot(rep, m):
+    rep.section('The same waypoints on the simulated px100: bot.arm.set_ee_waypoints')
+    from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
+    seq = waypoint_poses(m)
+    bot = InterbotixManipulatorXS('px100', 'arm', 'gripper', bringup=True,
+                                  connect_timeout=30.0)
+    samples, stop = [], threading.Event()
+
+    def sample():
+        while not stop.is_set():
+            T = bot.core.measured_ee_pose()
+            if T is not None:
+                samples.append(T[:3, 3].copy())
+            time.sleep(0.02)
+    try:
+        robot_startup()
+        bot.arm.go_to_home_pose()
+        thread = threading.Thread(target=sample, daemon=True)
+        thread.start()
+        t0 = time.monotonic()
+        ok = bot.arm.set_ee_waypoints([T for _, T in seq[1:]], max_joint_step=MAX_JOINT_STEP,
+                                      wp_period=0.05)
+        elapsed = time.monotonic() - t0
+        stop.set()
+        thread.join(2.0)
+        end = bot.core.measured_ee_pose()[:3, 3]
+        reason = bot.arm.last_error
+    finally:
+        stop.set()
+        robot_shutdown()
+    rep.compare('set_ee_waypoints returned True', float(ok), 1.0, 0.0, why=reason)
+    rep.compare('measured end effector at the last waypoint [mm]', end * 1000,
+                seq[-1][1][:3, 3] * 1000, 2.0)
+    P = np.array(samples).reshape(-1, 3)
+    corners = np.array([T[:3, 3] for _, T in seq])
+    off = _off_polyline(P, corners) if len(P) else float('nan')
+    rep.compare('largest distance of the measured path from the straight segments [mm]',
+                off * 1000, 0.0, 5.0,
+                why='the servos lag the setpoints: tracking error, not the plan')
+    print(f'  {len(P)} samples of the measured end effector over {elapsed:.1f} s (wall)')
+    fig = plt.figure(figsize=(6, 5.5))
+    ax = fig.add_subplot(projection='3d')
+    ax.plot(*(P * 1000).T, '.', ms=2, label='measured end effector')
+    ax.plot(*(corners * 1000).T, 'r--', lw=1, label='straight segments')
+    ax.set_xlabel('x [mm]')
+    ax.set_ylabel('y [mm]')
+    ax.set_zlabel('z [mm]')
+    set_axes_equal(ax)
+    ax.legend(fontsize=8)
+    ax.set_title('set_ee_waypoints on the simulated px100')
+    rep.save(fig, 'set_ee_waypoints_measured.png')
+    rep.values['robot_offline_mm'] = off * 1000
+
+
+def _off_polyline(P, corners) -> float:
+    """Return the largest distance [m] of the points P (k, 3) from the polyline."""
+    best = np.full(len(P), np.inf)
+    for a, b in zip(corners[:-1], corners[1:]):
+        ab = b - a
+        s = np.clip(((P - a) @ ab) / max(float(ab @ ab), 1e-18), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(P - (a + s[:, None] * ab), axis=1))
+    return float(best.max())
 
 
 def load_pid_experiment():
@@ -283,11 +352,15 @@ def main(argv=None):
         parser.add_argument('--quick', action='store_true',
                             help='shorter PID runs (2.5 s, integral 8 s) for tests')
         parser.add_argument('--skip-pid', action='store_true', help='leave out the PID table')
+        parser.add_argument('--no-robot', action='store_true',
+                            help='do not run the waypoints on the simulated arm')
     args, rep = start(NAME, 'px100 analytic IK, waypoints, Cartesian steps, PID table', argv,
                       extra)
     m = load_robot('px100')
     section_aik(rep, m)
     section_waypoints(rep, m)
+    if not args.no_robot:
+        section_robot(rep, m)
     if args.skip_pid:
         pass
     elif not os.path.exists(os.path.join(ROOT, 'scripts', 'pid_experiment.py')):

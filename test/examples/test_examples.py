@@ -71,7 +71,7 @@ def test_seed000_scripts_through_the_client(tmp_path, monkeypatch):
 
 def test_seed001(tmp_path):
     """compute_aik's wrist is off by -2 pitch; the planner bounds the steps; the PID table runs."""
-    rep = _run('seed001_aik_and_cartesian', tmp_path, '--quick')
+    rep = _run('seed001_aik_and_cartesian', tmp_path, '--quick', '--no-robot')
     assert len(rep.figures) == 2
     q = (0.3, -0.4, 0.5, 0.2)
     wrist = rep.values['aik_direct'][3]
@@ -86,6 +86,16 @@ def test_seed001(tmp_path):
     pid = {r.gains: r for r in rep.values['pid']}
     assert len(pid) == 6
     assert all(c.matches for c in _get(rep, 'pattern:'))
+
+
+@pytest.mark.ros
+def test_seed001_waypoints_on_the_simulated_arm(tmp_path):
+    """bot.arm.set_ee_waypoints runs the document's waypoint sequence on the simulated px100."""
+    rep = _run('seed001_aik_and_cartesian', tmp_path, '--skip-pid')
+    assert _get(rep, 'set_ee_waypoints returned True')[0].matches
+    assert _get(rep, 'measured end effector at the last waypoint')[0].matches
+    assert rep.values['robot_offline_mm'] < 5.0
+    assert any(p.endswith('set_ee_waypoints_measured.png') for p in rep.figures)
 
 
 def test_seed002(tmp_path):
