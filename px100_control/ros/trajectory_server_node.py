@@ -468,7 +468,7 @@ class TrajectoryServerNode(Node):
                 return
             t = (now.nanoseconds - g.t_start) * 1e-9
             if g.stepped and g.phase == 'executing':
-                # linear_max_step: one step per setpoint, however late the tick (never bigger)
+                # seed 001: one step per setpoint, however late the tick (never a bigger step)
                 t = g.ticks / self._rate
                 g.ticks += 1
             q, qd, _ = g.traj.sample(t)
