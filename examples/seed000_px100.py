@@ -39,6 +39,9 @@ OBJECTS = [[[100, 200, 3, np.pi / 4], [100, -200, 3, np.pi / 4]],
 #: V.8 main(): targets [mm] of the iterative pick-and-place
 OBJECTS_ITERATIVE = [[[100, 250, 100], [90, -100, 10]], [[20, 0, 250], [150, 50, 10]],
                      [[150, 0, 80], [40, -100, -30]]]
+#: the sim_driver scene for the scripts: none (the default pick_place table would block the
+#: targets at z = 3 mm and -30 mm, which the document reached in an empty RViz world)
+EMPTY_SCENE = ''
 URDF_WHY = ("the document's lengths are not the px100's: L1 = 89.54 vs 93.1 mm (URDF), L4 = "
             '109 vs 113.575 mm (to ee_gripper_link); its joint angles, sent to the simulated '
             'px100, put the gripper where the real geometry puts them')
@@ -250,10 +253,14 @@ def run_script(module_name: str):
     """Run one seed main() on the simulated px100; return (moves, samples)."""
     os.environ.setdefault('PX100_BRINGUP', '1')
     os.environ.setdefault('PX100_CONNECT_TIMEOUT', '30')
+    import functools
     import importlib
     from px100_control.client import arm as arm_module
-    from px100_control.client import robot_shutdown
+    from px100_control.client import InterbotixManipulatorXS, robot_shutdown
     module = importlib.import_module(module_name)
+    # the document simulated the arm alone (RViz): no table, no objects (scene '')
+    module.InterbotixManipulatorXS = functools.partial(
+        InterbotixManipulatorXS, node_kwargs={'parameters': {'scene': EMPTY_SCENE}})
     cls = arm_module.InterbotixArmXSInterface
     original = cls.set_joint_positions
     moves, sampler = [], _EeSampler()

@@ -108,7 +108,8 @@ def section_robot(rep, m):
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
     seq = waypoint_poses(m)
     bot = InterbotixManipulatorXS('px100', 'arm', 'gripper', bringup=True,
-                                  connect_timeout=30.0)
+                                  connect_timeout=30.0,
+                                  node_kwargs={'parameters': {'scene': ''}})   # arm alone
     samples, stop = [], threading.Event()
 
     def sample():
@@ -165,6 +166,24 @@ def _off_polyline(P, corners) -> float:
         s = np.clip(((P - a) @ ab) / max(float(ab @ ab), 1e-18), 0.0, 1.0)
         best = np.minimum(best, np.linalg.norm(P - (a + s[:, None] * ab), axis=1))
     return float(best.max())
+
+
+def plant_terms(exp) -> dict:
+    """Return the stepped joint's friction, back-EMF, gravity function from the simulator."""
+    from px100_control.control.simulator import ArmSimulator
+    from px100_control.models.registry import load_robot as load
+    model = load('px100')
+    sim = ArmSimulator(model)
+    k = model.joint_names.index(exp.JOINT)
+    pose = np.array(exp.POSE, dtype=float)
+
+    def gravity(angle: float) -> float:
+        q = pose.copy()
+        q[k] = angle
+        return float(sim.dynamics.gravity_torque(q)[k])
+    servo = getattr(sim, '_back_emf', [float('nan')] * model.dof)
+    return {'friction': float(sim.friction[k]), 'back_emf': float(servo[k]), 'gravity': gravity,
+            'g_start': gravity(pose[k]), 'g_target': gravity(pose[k] + exp.STEP)}
 
 
 def load_pid_experiment():
@@ -300,39 +319,46 @@ def section_pid(rep, quick: bool):
         print(f'  {"/".join(map(str, r.gains)):12s}  {r.steady_state_error:+.4f}         '
               f'{r.overshoot:.4f}           {r.settling_time:.2f}')
     by = {r.gains: r for r in results}
+    plant = plant_terms(exp)
+    print(f"  plant at the shoulder: Coulomb friction {plant['friction']:.3f} N*m, back-EMF "
+          f"damping {plant['back_emf']:.3f} N*m*s/rad, gravity {plant['g_start']:+.3f} N*m at "
+          f"the start, {plant['g_target']:+.3f} N*m at the target")
     p_only = by[(100, 0, 0)]
     g100 = PidGains.from_dynamixel(100, 0, 0)
     hold100 = abs(p_only.steady_state_error) * g100.p
     for gains, (ss, ss_tol), (ov, ov_tol), (st, st_tol) in PID_DOC:
         r = by[gains]
         g = PidGains.from_dynamixel(*gains)
-        held = abs(r.steady_state_error) * g.p
         label = '/'.join(map(str, gains))
+        g_stop = plant['gravity'](r.target - r.steady_state_error * np.sign(exp.STEP))
         why_st = 'settling depends on the step size and the load, which the document omits'
         if gains[1]:
             t_est = hold100 / (g.i * abs(p_only.steady_state_error))
             why_ss = why_st = (
                 f'the integral gain is {g.i:.3f} N*m/(rad s) in SI (register {gains[1]}): '
                 f'building the {hold100:.2f} N*m that P alone lacked from a '
-                f'{abs(p_only.steady_state_error):.2f} rad error takes about {t_est:.1f} s, so '
-                'the error goes (as the document says) but only after several seconds')
-        elif gains[2]:
-            why_ss = (f'with D the approach is slow and stops where P ({g.p:.2f} N*m/rad) x '
-                      f'{abs(r.steady_state_error):.3f} rad = {held:.3f} N*m no longer beats '
-                      'gravity plus Coulomb friction; the document reports none (a plant with '
-                      'little gravity load or friction?)')
-        elif r.steady_state_error < 0:
-            why_ss = (f'it ended {abs(r.steady_state_error):.3f} rad past the target: P x error = '
-                      f'{held:.3f} N*m is inside the Coulomb friction band, so the joint stays '
-                      'where its overshoot left it')
+                f'{abs(p_only.steady_state_error):.2f} rad error takes of the order of '
+                f'{t_est:.0f} s (error shrinking meanwhile), so the error goes, as the '
+                'document says, but over seconds')
         else:
-            why_ss = (f'P is {g.p:.3f} N*m/rad in SI (register {gains[0]}, ROBOTIS scaling): it '
-                      f'stops {abs(r.steady_state_error):.3f} rad short, where P supplies the '
-                      f'{held:.3f} N*m of gravity and friction the shoulder must hold there; the '
-                      f"document's {ss} rad implies a load of {ss * g.p:.3f} N*m (an almost "
-                      'unloaded joint) or another gain scaling')
-        why_ov = ('overshoot depends on the damping the plant has on its own (motor back-EMF '
-                  'here) and on the step size, which the document omits')
+            drive = g.p * r.steady_state_error       # > 0: pushing on toward the target
+            gap = abs(drive - abs(g_stop))
+            why_ss = (f'P is {g.p:.3f} N*m/rad in SI (register {gains[0]}, ROBOTIS scaling); '
+                      f'the joint stopped {abs(r.steady_state_error):.3f} rad '
+                      f"{'short of' if drive > 0 else 'past'} the target, where P pushes "
+                      f'{drive:+.3f} N*m against {abs(g_stop):.3f} N*m of gravity: the gap '
+                      f"{gap:.3f} N*m is within the Coulomb friction (+-{plant['friction']:.2f} "
+                      'N*m), which holds it there'
+                      + (' (the slow D-damped approach stops at the edge of that band)'
+                         if gains[2] else '')
+                      + (f"; the document's {ss} rad would mean a load of {ss * g.p:.3f} N*m "
+                         '(an almost unloaded joint) or another gain scaling' if ss > 0 else
+                         "; the document's none suggests a plant with less friction or load"))
+            if gap > 1.1 * plant['friction']:
+                why_ss = ''      # friction does not account for it: leave it unexplained
+        why_ov = ('overshoot depends on the damping the plant has on its own (back-EMF '
+                  f"{plant['back_emf']:.3f} N*m*s/rad here, unknown in the document) and on the "
+                  'step size, which the document omits')
         rep.compare(f'{label}: steady-state error [rad]', r.steady_state_error, ss, ss_tol,
                     why=why_ss)
         rep.compare(f'{label}: overshoot [rad]', r.overshoot, ov, ov_tol, why=why_ov)

@@ -13,13 +13,14 @@ L4 = 113.575 mm), which is asserted honestly below as "within 8 mm of the seed's
 within 1 mm of the URDF forward kinematics of the command".
 """
 import contextlib
+import functools
 import io
 import os
 
 from client_support import wait_until
 import numpy as np
 from px100_control.client import arm as arm_module
-from px100_control.client import robot_shutdown
+from px100_control.client import InterbotixManipulatorXS, robot_shutdown
 import pytest
 
 pytestmark = pytest.mark.ros
@@ -77,17 +78,30 @@ def _check(calls, targets_mm):
         assert seed_err_mm < 8.0, f'{target} mm: ended {seed_err_mm:.1f} mm away'
 
 
-def test_seed000_joint_space_main(spy):
+def _empty_world(monkeypatch, module):
+    """
+    Give the script's robot no scene (sim_driver parameter scene = '').
+
+    The document's targets at z = 3 and -30 mm are on or below the default scene's table,
+    which its simulation (an empty RViz world) did not have.
+    """
+    monkeypatch.setattr(module, 'InterbotixManipulatorXS', functools.partial(
+        InterbotixManipulatorXS, node_kwargs={'parameters': {'scene': ''}}))
+
+
+def test_seed000_joint_space_main(spy, monkeypatch):
     """Section V.6 main(): convert_param_op_to_qdh targets, open/close, sleep at the end."""
     import seed000_main_joint_space
+    _empty_world(monkeypatch, seed000_main_joint_space)
     with contextlib.redirect_stdout(io.StringIO()):
         seed000_main_joint_space.main()
     _check(spy, SCRIPT1_TARGETS)
 
 
-def test_seed000_iterative_main(spy):
+def test_seed000_iterative_main(spy, monkeypatch):
     """Section V.8 main(): iterative_algorithm targets (null-space toward q_nom)."""
     import seed000_main_iterative
+    _empty_world(monkeypatch, seed000_main_iterative)
     with contextlib.redirect_stdout(io.StringIO()):
         seed000_main_iterative.main()
     _check(spy, SCRIPT2_TARGETS)
