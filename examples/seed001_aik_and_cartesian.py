@@ -311,7 +311,8 @@ def section_pid(rep, quick: bool):
     rep.section('PID gain table (shoulder step on the simulated arm, scripts/pid_experiment.py)')
     exp = load_pid_experiment()
     results = exp.run_experiment(*((2.5, 8.0) if quick else (5.0, 30.0)))
-    print(f'  plant: {exp.__doc__.strip().splitlines()[0]}')
+    from px100_control.control import simulator
+    print(f'  plant: {simulator.__doc__.strip().splitlines()[0]}')
     print(f'  step {exp.STEP:+.2f} rad of the {exp.JOINT} from {list(exp.POSE)}; the document '
           'does not say which joint, pose or step it used')
     print('  Kp/Ki/Kv      ss error [rad]  overshoot [rad]  settling [s]')
