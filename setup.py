@@ -34,6 +34,7 @@ setup(
         ('share/' + PACKAGE + '/config', _data('config/*.yaml')),
         ('share/' + PACKAGE + '/config/robots', _data('config/robots/*')),
         ('share/' + PACKAGE + '/config/scenes', _data('config/scenes/*')),
+        ('share/' + PACKAGE + '/examples', _data('examples/*')),
         ('share/' + PACKAGE + '/launch', _data('launch/*.launch.*')),
         # environment hooks (ROS_DISTRO), registered for colcon in colcon.pkg
         ('share/' + PACKAGE + '/environment', _data('environment/*')),

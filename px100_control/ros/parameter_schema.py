@@ -189,8 +189,8 @@ SIM_DRIVER = NodeSchema('sim_driver', COMMON + (
               'real_time_factor = 1)', read_only=True),
     ParamSpec('clock_rate', 'double', 250.0, '/clock rate in simulated time [Hz]',
               low=1.0, high=10000.0),
-    ParamSpec('dynamics_divider', 'integer', 4, 're-evaluate the mass matrix and bias forces '
-              'every k physics steps (1 = exact)', low=1, high=1000),
+    ParamSpec('dynamics_divider', 'integer', 4, 'ignored, kept for compatibility (MuJoCo '
+              'evaluates every step)', low=1, high=1000),
     ParamSpec('object_width', 'double', 0.0, 'width of an object between the fingers [m], '
               '0 = none', low=0.0, high=10.0),
     ParamSpec('world_rate', 'double', 30.0, 'world/markers rate [Hz]', low=0.1, high=1000.0),
