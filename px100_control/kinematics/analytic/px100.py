@@ -373,20 +373,11 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     """
     g = geometry(model)
     T = np.asarray(T_target, dtype=float)
+    if mode == 'full':
+        return np.array(_full_rows(g, T.tolist(), T), dtype=float).reshape(-1, 4)
     P0, P1, P2 = g.to_arm_frame(T[:3, 3])
     out: list = []
-    if mode == 'full':
-        G = _tool_plane_rotation(g, T).tolist()
-        if G[0][1] * G[0][1] + G[1][1] * G[1][1] > 1e-24:
-            t = math.atan2(-G[0][1], G[1][1])
-        else:
-            t = math.atan2(P1, P0)
-        phi = math.atan2(-G[2][0], G[2][2])
-        waists: list = []
-        _waist_values(g, t, waists)
-        for t1 in waists:
-            _planar(g, t1, phi, P0, P1, P2, out)
-    elif mode == 'pitch':
+    if mode == 'pitch':
         a, pitch = target_pitch(g, T)
         for t, phi in _pitch_branches(g, P0, P1, pitch, a):
             waists = []
@@ -402,6 +393,39 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     else:
         raise ValueError(f'unknown IK mode {mode!r}')
     return np.array(out, dtype=float).reshape(-1, 4)
+
+
+def _full_rows(g: Px100Geometry, L, T=None) -> list:
+    """
+    Return the 'full' candidates of a pose L (4 rows of 4 floats; T: the same as an array).
+
+    The waist comes from the tool orientation (seed 001), then two elbow signs.
+    """
+    if g.frame_is_base and g.tool_is_identity:
+        P0, P1, P2 = L[0][3], L[1][3], L[2][3]
+        G = L
+    else:
+        T = np.array(L, dtype=float) if T is None else T
+        P0, P1, P2 = g.to_arm_frame(T[:3, 3])
+        G = _tool_plane_rotation(g, T).tolist()
+    if G[0][1] * G[0][1] + G[1][1] * G[1][1] > 1e-24:
+        t = math.atan2(-G[0][1], G[1][1])
+    else:
+        t = math.atan2(P1, P0)
+    phi = math.atan2(-G[2][0], G[2][2])
+    waists: list = []
+    _waist_values(g, t, waists)
+    out: list = []
+    for t1 in waists:
+        _planar(g, t1, phi, P0, P1, P2, out)
+    return out
+
+
+def candidates_rows(model, T_rows, mode: str = 'full') -> list:
+    """Return the candidates of ``candidates`` as lists; T_rows: 4 rows of 4 floats."""
+    if mode == 'full':
+        return _full_rows(geometry(model), T_rows)
+    return candidates(model, np.array(T_rows, dtype=float), mode).tolist()
 
 
 def _branch(g: Px100Geometry, P0: float, P1: float, P2: float, a: float, back: bool,
