@@ -18,8 +18,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 import numpy as np
 from px100_control.control import trajectory as tj
 from px100_control.control.goal_executor import ABORTED, CANCELED, GoalRequest, SUCCEEDED
-from px100_control.ros import cdr
 from px100_control.ros.conversions import seconds, stamp_id, stamp_key, stamp_uuid
+from px100_control.wire.cdr import trajectory_shape
 
 STATUS_NAMES = {GoalStatus.STATUS_ACCEPTED: 'ACCEPTED', GoalStatus.STATUS_EXECUTING: 'EXECUTING',
                 GoalStatus.STATUS_CANCELING: 'CANCELING',
@@ -122,7 +122,7 @@ def shape_error(data: bytes, arm_names):
     None also when the bytes cannot be read this way (the deserializer then says what is wrong).
     """
     try:
-        (sec, nanosec), names, lengths = cdr.trajectory_shape(data)
+        (sec, nanosec), names, lengths = trajectory_shape(data)
     except ValueError:
         return None
     reason = tj.validate_shape(arm_names, names, lengths)

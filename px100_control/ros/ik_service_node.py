@@ -36,7 +36,6 @@ checked at start against the middleware's deserializer; preallocated messages ot
 node spins single-threaded.
 """
 import math
-import struct
 import threading
 
 from builtin_interfaces.msg import Time
@@ -49,6 +48,8 @@ from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
                                       robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
+from px100_control.wire.cdr import read_pose_stamped
+from px100_control.wire.private_api import take_serialized
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile,
@@ -58,8 +59,6 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 NODE_NAME = 'ik_service'
-_HEAD = struct.Struct('<iII')     # header.stamp.sec, .nanosec, frame_id length (with NUL)
-_POSE = struct.Struct('<7d')      # position x y z, orientation x y z w
 MODES = {'pitch': 'pitch', 'strict': 'full'}
 
 #: requests and replies: reliable and deep, so bursts from many clients lose nothing
@@ -78,21 +77,18 @@ PARAMETERS = {
 }
 
 
-def parse_pose_stamped(raw: bytes):
+def parse_pose_stamped(raw: bytes, in_place: bool = True):
     """
     Return (stamp (builtin_interfaces/Time), frame_id, (x, y, z, qx, qy, qz, qw)) of a request.
 
-    ``raw`` is a serialized geometry_msgs/PoseStamped. Little-endian CDR (what every ROS 2
-    middleware here sends) is read in place: header.stamp, frame_id, then the 7 doubles aligned
-    to 8; anything else goes through rclpy's deserializer.
+    ``raw`` is a serialized geometry_msgs/PoseStamped, read in place (``wire.cdr``) when
+    ``in_place`` (the reader agreed with rclpy at start); anything it cannot read goes through
+    rclpy's deserializer.
     """
-    if raw[:2] == b'\x00\x01' and len(raw) >= 16:
-        sec, nanosec, n = _HEAD.unpack_from(raw, 4)
-        off = 12 + n                      # CDR offsets count from the end of the 4-byte header
-        off += -off % 8
-        if n >= 1 and 4 + off + 56 <= len(raw):
-            frame = raw[16:15 + n].decode('utf-8', 'replace')
-            return Time(sec=sec, nanosec=nanosec), frame, _POSE.unpack_from(raw, 4 + off)
+    got = read_pose_stamped(raw) if in_place else None
+    if got is not None:
+        sec, nanosec, frame, values = got
+        return Time(sec=sec, nanosec=nanosec), frame, values
     msg = deserialize_message(raw, PoseStamped)
     p, o = msg.pose.position, msg.pose.orientation
     return msg.header.stamp, msg.header.frame_id, (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
@@ -129,6 +125,7 @@ class IkServiceNode(Node):
         self._load_parameters()
         self.add_post_set_parameters_callback(lambda params: self._load_parameters())
         self._raw_replies = cdr.matches_rclpy()
+        self._raw_requests = cdr.pose_stamped_matches_rclpy()
         self._solution_writer = cdr.JointStateWriter(self._names)
 
         self._pub_solution = self.create_publisher(JointState, robot_topic(self, 'ik/solution'),
@@ -230,7 +227,7 @@ class IkServiceNode(Node):
         seed = self._seed()
         for req in batch:
             try:
-                stamp, frame, values = parse_pose_stamped(req)
+                stamp, frame, values = parse_pose_stamped(req, self._raw_requests)
             except Exception as exc:  # noqa: B902 - unreadable bytes: no id to answer to
                 self.get_logger().error(f'unreadable ik/request dropped: {exc!r}')
                 continue
@@ -245,8 +242,7 @@ class IkServiceNode(Node):
         """Return the next request waiting in the subscription queue, or None."""
         sub = self._request_sub
         try:
-            with sub.handle:
-                taken = sub.handle.take_message(sub.msg_type, sub.raw)
+            taken = take_serialized(sub)
         except Exception:  # noqa: B902 - draining is an optimisation; the executor takes it
             return None
         return None if taken is None else taken[0]

@@ -47,6 +47,7 @@ from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
 from px100_control.ros.common import BAG_EXECUTOR, make_executor, parse_cli, robot_name
+from px100_control.wire.private_api import take_serialized
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -308,8 +309,7 @@ class RecorderNode(Node):
                 if sub is None or self._closing:
                     break
                 try:
-                    with sub.handle:
-                        taken = sub.handle.take_message(sub.msg_type, True)
+                    taken = take_serialized(sub)
                 except Exception:  # destroyed meanwhile (stop in progress)
                     break
                 if taken is None or not handle(*taken):
@@ -473,8 +473,7 @@ class RecorderNode(Node):
         for topic, sub in list(self._subs.items()):
             for _ in range(100 * SUBSCRIPTION_DEPTH):
                 try:
-                    with sub.handle:
-                        taken = sub.handle.take_message(sub.msg_type, True)
+                    taken = take_serialized(sub)
                 except Exception:  # destroyed: nothing left to take
                     break
                 if taken is None:
