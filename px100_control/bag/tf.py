@@ -16,6 +16,7 @@ from typing import Dict, List, Mapping, Optional, Tuple
 import numpy as np
 from px100_control.errors import RobotModelError
 from px100_control.kinematics.rotations import matrix_to_quaternion
+from px100_control.models.urdf_chain import load_urdf
 from px100_control.wire.cdr import tf_message
 
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
@@ -51,7 +52,6 @@ class TfTree:
     """
 
     def __init__(self, urdf_xml: str, frame_prefix: str = ''):
-        from px100_control.models.urdf_chain import load_urdf
         urdf = load_urdf(urdf_xml)
         self.frame_prefix = frame_prefix
         joints = []

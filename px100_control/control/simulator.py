@@ -43,6 +43,7 @@ from px100_control.control.dynamics import ChainDynamics, dynamics_for_model, GR
 from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import Pid, PidGains
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
+from px100_control.models.urdf_chain import load_urdf
 
 #: default gains of a revolute arm joint (SI): about 5x the XL430 factory stiffness (P 640 =
 #: 5.16 N*m/rad) with integral action, so the arm holds within 1 mrad under gravity and Coulomb
@@ -263,7 +264,6 @@ def _urdf_joint_dynamics(urdf_xml: Optional[str]) -> Dict[str, Tuple[float, floa
     """Return {joint: (damping, friction)} from a URDF's <dynamics> tags."""
     if not urdf_xml:
         return {}
-    from px100_control.models.urdf_chain import load_urdf
     out = {}
     for j in load_urdf(urdf_xml).robot.joints:
         dyn = j.dynamics
@@ -277,7 +277,6 @@ def _gripper_inertia(urdf_xml: Optional[str], gripper_joint: str, fingers) -> Tu
     default = (1.2e-6, 0.016)
     if not urdf_xml:
         return default
-    from px100_control.models.urdf_chain import load_urdf
     urdf = load_urdf(urdf_xml)
     joints = {j.name: j for j in urdf.robot.joints}
     links = {link.name: link for link in urdf.robot.links}

@@ -31,6 +31,7 @@ import numpy as np
 
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
+from px100_control.kinematics.analytic import px100
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_py, solve_dls,
                                                 solve_newton, Task)
@@ -701,7 +702,6 @@ def scalar_pitch_solver(model):
     """Return the px100-family scalar solver when 'pitch' requests can use it, else None."""
     if model.analytic_ik != 'px100' or model.dof != 4 or not pitch_applies(model):
         return None
-    from px100_control.kinematics.analytic import px100
     g = px100.geometry(model)
     # the arm frame must be the base frame up to a translation (same azimuths) and the tool
     # frame at q = 0 aligned with it (front branch = tool roll 0)

@@ -45,7 +45,10 @@ from px100_control.bag.replay import resolve_topic
 from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
+from px100_control.models.registry import load_robot
 from px100_control.models.registry import read_robot_file
+from px100_control.models.urdf_prefix import prefix_urdf
+from px100_control.models.urdf_writer import urdf_from_model
 from px100_control.ros.common import BAG_EXECUTOR, make_executor, parse_cli, robot_name
 from px100_control.wire.private_api import take_serialized
 import rclpy
@@ -213,11 +216,9 @@ class RecorderNode(Node):
     def _load_model(self) -> None:
         """Load the robot model's URDF and its tf tree (background thread)."""
         try:
-            from px100_control.models.registry import load_robot
             model = load_robot(self.model_name)
             urdf = model.urdf_xml
             if not urdf:
-                from px100_control.models.urdf_writer import urdf_from_model
                 urdf = urdf_from_model(model)
             self._model_urdf_xml = urdf
             self._model_tf_tree = TfTree(urdf, f'{self.robot_name}/' if self.robot_name
@@ -403,7 +404,6 @@ class RecorderNode(Node):
         if urdf is None:
             return
         if self.robot_name:
-            from px100_control.models.urdf_prefix import prefix_urdf
             urdf = prefix_urdf(urdf, self.robot_name)
         # std_msgs/String CDR: encapsulation header, uint32 length (with NUL), bytes, NUL
         text = urdf.encode('utf-8') + b'\x00'

@@ -27,6 +27,7 @@ from typing import List, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
+from px100_control.kinematics.analytic import px100
 from px100_control.kinematics.trig_equations import wrap_angle
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
@@ -223,8 +224,8 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
 @functools.lru_cache(maxsize=64)
 def _arm4(model):
     """Return the 4-joint sub-model (waist + three pitch joints) of a 5-DOF model."""
-    from px100_control.models.robot_model import RobotModel
-    return RobotModel(
+    # the model's own class (the models layer sits above kinematics)
+    return type(model)(
         name=f'{model.name}:arm4', joint_names=tuple(model.joint_names[:4]),
         joint_types=tuple(model.joint_types[:4]), S_list=np.asarray(model.S_list)[:, :4],
         M=np.asarray(model.M), lower=np.asarray(model.lower)[:4],
@@ -243,7 +244,6 @@ def position_solutions(model, T_target: np.ndarray, q_nominal=None,
     (the free pitch minimising |q - q_nominal| on every branch); wrist_rotate = q_nominal's value
     (wrapped into its limits), which minimises its own term exactly.
     """
-    from px100_control.kinematics.analytic import px100
     geometry(model)
     qn = np.asarray(model.home if q_nominal is None else q_nominal, dtype=float)
     Q4 = px100.position_solutions(_arm4(model), T_target, qn[:4], check_limits=check_limits)

@@ -32,6 +32,8 @@ from px100_control.kinematics.analytic.interbotix5 import (ArmPlane, planar_solu
                                                            plane_geometry,
                                                            position_reach_words, reach_words,
                                                            rows_of, waist_angles)
+from px100_control.kinematics.iterative import chain, fk_and_jacobian
+from px100_control.kinematics.se3 import log_so3
 from px100_control.kinematics.trig_equations import wrap_angle
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
@@ -131,8 +133,6 @@ def _solve_pose(g: ArmPlane, R, p, limits=None) -> List[List[float]]:
 
 def _refine(model, Q: np.ndarray, T: np.ndarray, iterations: int = 10) -> np.ndarray:
     """Gauss-Newton polish of guesses for a near-spherical wrist (base-frame pose error)."""
-    from px100_control.kinematics.iterative import chain, fk_and_jacobian
-    from px100_control.kinematics.se3 import log_so3
     c = chain(model)
     out = []
     for q in Q:
