@@ -43,6 +43,9 @@ from px100_control.control.dynamics import ChainDynamics, dynamics_for_model, GR
 from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import Pid, PidGains
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
+from px100_control.kinematics.kernels import cholesky as _cholesky
+from px100_control.kinematics.kernels import cholesky_solve as _cholesky_solve
+from px100_control.kinematics.kernels import quaternion_xyzw as _quaternion_xyzw
 from px100_control.models.urdf_chain import load_urdf
 
 #: default gains of a revolute arm joint (SI): about 5x the XL430 factory stiffness (P 640 =
@@ -195,69 +198,9 @@ def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
     return cmd
 
 
-def _cholesky(A: List[List[float]]) -> List[List[float]]:
-    """Return the lower Cholesky factor L (A = L L^T) of a small SPD matrix, as lists."""
-    n = len(A)
-    L = [[0.0] * n for _ in range(n)]
-    for i in range(n):
-        Li = L[i]
-        for j in range(i + 1):
-            Lj = L[j]
-            s = A[i][j]
-            for k in range(j):
-                s -= Li[k] * Lj[k]
-            if i == j:
-                if s <= 0.0:
-                    raise np.linalg.LinAlgError('mass matrix is not positive definite')
-                Li[i] = math.sqrt(s)
-            else:
-                Li[j] = s / Lj[j]
-    return L
-
-
-def _cholesky_solve(L: List[List[float]], b: List[float]) -> List[float]:
-    """Return x with L L^T x = b (forward and back substitution on lists)."""
-    n = len(b)
-    y = [0.0] * n
-    for i in range(n):
-        s = b[i]
-        Li = L[i]
-        for k in range(i):
-            s -= Li[k] * y[k]
-        y[i] = s / Li[i]
-    x = [0.0] * n
-    for i in range(n - 1, -1, -1):
-        s = y[i]
-        for k in range(i + 1, n):
-            s -= L[k][i] * x[k]
-        x[i] = s / L[i][i]
-    return x
-
-
 def _solve_spd(A: List[List[float]], b: List[float]) -> List[float]:
     """Return x with A x = b for a small symmetric positive definite A (Cholesky, lists)."""
     return _cholesky_solve(_cholesky(A), b)
-
-
-def _quaternion_xyzw(R) -> Tuple[float, float, float, float]:
-    """Return the unit quaternion (x, y, z, w), w >= 0, of a 3x3 rotation given as lists."""
-    tr = R[0][0] + R[1][1] + R[2][2]
-    if tr > 0.0:
-        s = 2.0 * math.sqrt(tr + 1.0)
-        q = ((R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s, 0.25 * s)
-    elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
-        s = 2.0 * math.sqrt(1.0 + R[0][0] - R[1][1] - R[2][2])
-        q = (0.25 * s, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s, (R[2][1] - R[1][2]) / s)
-    elif R[1][1] > R[2][2]:
-        s = 2.0 * math.sqrt(1.0 + R[1][1] - R[0][0] - R[2][2])
-        q = ((R[0][1] + R[1][0]) / s, 0.25 * s, (R[1][2] + R[2][1]) / s, (R[0][2] - R[2][0]) / s)
-    else:
-        s = 2.0 * math.sqrt(1.0 + R[2][2] - R[0][0] - R[1][1])
-        q = ((R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, 0.25 * s, (R[1][0] - R[0][1]) / s)
-    if q[3] < 0.0:
-        q = tuple(-x for x in q)
-    norm = math.sqrt(sum(x * x for x in q))
-    return tuple(x / norm for x in q)
 
 
 def _urdf_joint_dynamics(urdf_xml: Optional[str]) -> Dict[str, Tuple[float, float]]:

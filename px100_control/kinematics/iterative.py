@@ -24,6 +24,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.kernels import cholesky, cholesky_solve
 from px100_control.kinematics.se3 import log_se3
 
 Vec = List[float]
@@ -433,43 +434,8 @@ def _dot(a, b) -> float:
 
 
 def _cholesky(A) -> list:
-    """Return the lower Cholesky factor L (nested lists) of a symmetric positive-definite A."""
-    n = len(A)
-    L = [[0.0] * n for _ in range(n)]
-    for j in range(n):
-        Lj = L[j]
-        s = A[j][j]
-        for k in range(j):
-            s -= Lj[k] * Lj[k]
-        d = math.sqrt(s) if s > 0.0 else 1e-150
-        Lj[j] = d
-        inv = 1.0 / d
-        for i in range(j + 1, n):
-            Li = L[i]
-            s = A[i][j]
-            for k in range(j):
-                s -= Li[k] * Lj[k]
-            Li[j] = s * inv
-    return L
-
-
-def _cholesky_apply(L, b) -> Vec:
-    """Solve L L^T x = b for x, L from ``_cholesky``."""
-    n = len(L)
-    y = [0.0] * n
-    for i in range(n):
-        Li = L[i]
-        s = b[i]
-        for k in range(i):
-            s -= Li[k] * y[k]
-        y[i] = s / Li[i]
-    x = [0.0] * n
-    for i in range(n - 1, -1, -1):
-        s = y[i]
-        for k in range(i + 1, n):
-            s -= L[k][i] * x[k]
-        x[i] = s / L[i][i]
-    return x
+    """Return the Cholesky factor of a damped (SPD up to rounding) Gram matrix."""
+    return cholesky(A, floor=1e-150)
 
 
 def _gram(vectors, lam2: float) -> list:
@@ -498,13 +464,13 @@ def _dls_apply(rows, lam2: float):
         L = _cholesky(_gram(rows, lam2))
 
         def apply(b):
-            y = _cholesky_apply(L, b)
+            y = cholesky_solve(L, b)
             return [sum(map(mul, col, y)) for col in cols]
         return apply
     L = _cholesky(_gram(cols, lam2))
 
     def apply_n(b):
-        return _cholesky_apply(L, [sum(map(mul, col, b)) for col in cols])
+        return cholesky_solve(L, [sum(map(mul, col, b)) for col in cols])
     return apply_n
 
 
@@ -562,8 +528,8 @@ def _dls_solve(cols, e, lam2: float) -> Vec:
         return [sum(map(mul, col, y)) for col in cols]
     if n <= m:
         b = [sum(map(mul, col, e)) for col in cols]
-        return _cholesky_apply(_cholesky(_gram(cols, lam2)), b)
-    y = _cholesky_apply(_cholesky(_gram(list(zip(*cols)), lam2)), e)
+        return cholesky_solve(_cholesky(_gram(cols, lam2)), b)
+    y = cholesky_solve(_cholesky(_gram(list(zip(*cols)), lam2)), e)
     return [sum(map(mul, col, y)) for col in cols]
 
 

@@ -35,6 +35,7 @@ from px100_control.kinematics.analytic import px100
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_py, solve_dls,
                                                 solve_newton, Task)
+from px100_control.kinematics.kernels import wrap
 
 MODES = ('full', 'pitch', 'position')
 METHODS = ('auto', 'analytic', 'dls', 'newton')
@@ -46,10 +47,6 @@ _RESTARTS = 24            # iterative starts (see _starts)
 def _solver(name: str):
     """Return the analytic module ``name`` (cached: importlib costs a lookup per call)."""
     return get_solver(name)
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def check_pose(T_target, what: str = 'pose') -> np.ndarray:
@@ -171,14 +168,14 @@ def pitch_target(model, T: np.ndarray):
         return T, {'unreachable_roll': 0.0, 'unreachable_yaw': 0.0}
     r, p, y = _euler_sxyz(T)
     if abs(r) > math.pi / 2:
-        r, p, y = _wrap(r + math.pi), _wrap(math.pi - p), _wrap(y + math.pi)
+        r, p, y = wrap(r + math.pi), wrap(math.pi - p), wrap(y + math.pi)
     a = target_azimuth(model, T[:3, 3])
-    dy = _wrap(y - a)
-    y_forced = a if abs(dy) <= math.pi / 2 else _wrap(a + math.pi)
+    dy = wrap(y - a)
+    y_forced = a if abs(dy) <= math.pi / 2 else wrap(a + math.pi)
     keep_roll = n == 5
     Tf = _pose_sxyz(T[:3, 3], r if keep_roll else 0.0, p, y_forced)
     return Tf, {'unreachable_roll': 0.0 if keep_roll else float(r),
-                'unreachable_yaw': float(_wrap(y - y_forced)),
+                'unreachable_yaw': float(wrap(y - y_forced)),
                 'pitch': float(p), 'yaw': float(y_forced)}
 
 
@@ -403,7 +400,7 @@ def _starts(model, q_seed, q_nominal, azimuth=None):
                  else [q_seed[0] + 2 * math.pi / 3, q_seed[0] - 2 * math.pi / 3])
         for t in turns:
             s = np.array(q_seed, float)
-            s[0] = _wrap(t)
+            s[0] = wrap(t)
             fixed.append(np.clip(s, lo, hi))
     rng = np.random.default_rng(0)
     seen: list = []
@@ -676,7 +673,7 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
         if res.success or method == 'analytic' or getattr(module, 'complete', False):
             if res.details.pop('roll_flipped', False):
                 # only the upside-down configuration is in the limits: say so
-                details['unreachable_roll'] = _wrap(details['unreachable_roll'] - math.pi)
+                details['unreachable_roll'] = wrap(details['unreachable_roll'] - math.pi)
                 details['roll_flipped'] = True
             res.details.update(details)
             return res
@@ -739,10 +736,10 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     pi = math.pi
     roll, pitch, yaw = math.atan2(r21, r22), math.atan2(-r20, cy), math.atan2(r10, r00)
     if abs(roll) > pi / 2:
-        roll, pitch, yaw = _wrap(roll + pi), _wrap(pi - pitch), _wrap(yaw + pi)
+        roll, pitch, yaw = wrap(roll + pi), wrap(pi - pitch), wrap(yaw + pi)
     a = target_azimuth(model, (x, y, z))
-    outward = abs(_wrap(yaw - a)) <= pi / 2
-    forced = a if outward else _wrap(a + pi)
+    outward = abs(wrap(yaw - a)) <= pi / 2
+    forced = a if outward else wrap(a + pi)
     # the solver's pitch is measured from the outward direction
     front, back = solver(x, y, z, pitch if outward else pi - pitch, 1e-9)
     upright, other = (front, back) if outward else (back, front)
@@ -750,7 +747,7 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     if flipped:
         if not other:
             return None
-        roll = _wrap(roll - pi)          # only the upside-down configurations are in limits
+        roll = wrap(roll - pi)          # only the upside-down configurations are in limits
     s0, s1, s2, s3 = (float(v) for v in q_seed)
 
     def cost(q):
@@ -771,7 +768,7 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     oe = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), x0 * d0 + x1 * d1 + x2 * d2)
     if pe > tol_position or oe > tol_orientation:
         return None
-    return sols, pe, oe, roll, _wrap(yaw - forced), flipped, (pitch, forced)
+    return sols, pe, oe, roll, wrap(yaw - forced), flipped, (pitch, forced)
 
 
 def _pitch_rows_to_poses(model, rows: np.ndarray) -> np.ndarray:

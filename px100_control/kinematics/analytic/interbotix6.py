@@ -33,8 +33,8 @@ from px100_control.kinematics.analytic.interbotix5 import (ArmPlane, planar_solu
                                                            position_reach_words, reach_words,
                                                            rows_of, waist_angles)
 from px100_control.kinematics.iterative import chain, fk_and_jacobian
+from px100_control.kinematics.kernels import wrap_angle
 from px100_control.kinematics.se3 import log_so3
-from px100_control.kinematics.trig_equations import wrap_angle
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
 complete = True

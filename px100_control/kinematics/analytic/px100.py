@@ -25,6 +25,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
+from px100_control.kinematics.kernels import wrap
 
 #: candidates() returns every closed-form solution: solve_ik needs no iterative fallback.
 complete = True
@@ -68,11 +69,6 @@ class Px100Geometry:
             return float(p[0]), float(p[1]), float(p[2])
         P = self.R_F.T @ (np.asarray(p, dtype=float) - self.origin)
         return float(P[0]), float(P[1]), float(P[2])
-
-
-def _wrap(a: float) -> float:
-    """Return a wrapped to [-pi, pi)."""
-    return (a + math.pi) % _TWO_PI - math.pi
 
 
 @functools.lru_cache(maxsize=64)
@@ -130,7 +126,7 @@ def geometry(model) -> Px100Geometry:
 
 def _waist_values(g: Px100Geometry, t: float, out: list) -> None:
     """Append t wrapped to [-pi, pi) and its +-2 pi copies that fit the waist limits."""
-    t = _wrap(t)
+    t = wrap(t)
     out.append(t)
     if t + _TWO_PI <= g.upper[0] + 1e-9:
         out.append(t + _TWO_PI)
@@ -389,7 +385,7 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
         for k in range(_POSITION_GRID):
             pitch = -math.pi + _TWO_PI * k / _POSITION_GRID
             for t, phi in _pitch_branches(g, P0, P1, pitch, a):
-                _planar(g, _wrap(t), phi, P0, P1, P2, out)
+                _planar(g, wrap(t), phi, P0, P1, P2, out)
     else:
         raise ValueError(f'unknown IK mode {mode!r}')
     return np.array(out, dtype=float).reshape(-1, 4)
@@ -432,9 +428,9 @@ def _branch(g: Px100Geometry, P0: float, P1: float, P2: float, a: float, back: b
             sgn: float, pitch: float) -> Optional[tuple]:
     """Return the one solution of a branch (waist side, elbow sign) at a pitch, or None."""
     if back:
-        t1, phi = _wrap(a + math.pi), math.pi - pitch - g.mu
+        t1, phi = wrap(a + math.pi), math.pi - pitch - g.mu
     else:
-        t1, phi = _wrap(a), pitch - g.mu
+        t1, phi = wrap(a), pitch - g.mu
     out: list = []
     _planar(g, t1, phi, P0, P1, P2, out)
     if not out:
@@ -588,7 +584,7 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
             return (f'pose not reachable by a 4-DOF arm: the position is {abs(off):.4g} m off '
                     f'the vertical plane of the tool heading {t:.4g} rad')
         phi = math.atan2(-G[2, 0], G[2, 2])
-        pitch = _wrap(phi + g.mu) + 0.0
+        pitch = wrap(phi + g.mu) + 0.0
         margin = reach_margin(model, T[:3, 3], pitch)
         return _reach_words(margin, f' at pitch {pitch:.4g} rad')
     if mode == 'pitch':

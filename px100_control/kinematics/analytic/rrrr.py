@@ -31,7 +31,7 @@ from typing import List, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
-from px100_control.kinematics.trig_equations import wrap_angle
+from px100_control.kinematics.kernels import wrap_angle
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
 complete = True
