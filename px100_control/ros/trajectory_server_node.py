@@ -15,6 +15,7 @@ ignored (reported on /diagnostics). Statuses go to ``trajectory/status`` and /di
 freshness and the watchdog use the steady clock; a ``joint_states`` read late because this
 node stalled counts from its stamp.
 """
+from dataclasses import fields
 import threading
 import time
 from typing import Optional
@@ -56,7 +57,7 @@ STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
 WATCHDOG_PERIOD = 0.02
 STALL_WARN = 0.25
 #: the parameters the goal executor reads (goal_executor.Settings)
-SETTINGS = [name for name in TRAJECTORY_SERVER.names if name != 'status_history']
+SETTINGS = [f.name for f in fields(Settings)]
 
 
 class TrajectoryServerNode(Node):
