@@ -50,6 +50,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.logging import LoggingSeverity
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -66,6 +67,15 @@ _BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 _RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
 _LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
+_LATCHED_MANY = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def _active_recorder_dirs() -> List[str]:
+    """Return the bag directories of the Recorders running in this process."""
+    import sys
+    module = sys.modules.get('px100_control.ros.recorder_node')
+    return list(module.active_bag_dirs()) if module is not None else []
 
 
 def env_float(name: str, default: float) -> float:
@@ -147,7 +157,14 @@ class InterbotixRobotXSCore:
         ``PX100_REAL_TIME_FACTOR``, default 1)
     :param connect_timeout: [s] how long to wait for the nodes (env ``PX100_CONNECT_TIMEOUT``,
         default 10; 30 when this call starts them)
+    :param init_node: ROS 1 argument, accepted and unused (the global node always exists)
+    :param joint_state_topic: ROS 1 / standalone-gripper name of topic_joint_states
     :param node_kwargs: extra keyword arguments for the in-process nodes
+    :param recorder: wait before the first command until a recorder records everything: a
+        :class:`px100_control.ros.recorder_node.Recorder` (waits until it is ready), True (waits
+        up to connect_timeout for any recorder of this namespace to announce ``recorder/ready``;
+        env ``PX100_RECORDER=wait``), None (default: waits only for a recorder already visible
+        in the graph), False (never waits)
     """
 
     def __init__(self, robot_model: str, robot_name: Optional[str] = None,
@@ -155,7 +172,12 @@ class InterbotixRobotXSCore:
                  logging_level: LoggingSeverity = LoggingSeverity.INFO,
                  node_name: str = 'interbotix_robot_manipulation', node=None, args=None, *,
                  bringup: Optional[bool] = None, real_time_factor: Optional[float] = None,
-                 connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None):
+                 connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None,
+                 recorder=None, init_node: bool = True, joint_state_topic: Optional[str] = None):
+        if isinstance(topic_joint_states, bool):  # ROS 1: (robot_model, robot_name, init_node)
+            topic_joint_states = 'joint_states'
+        if joint_state_topic is not None:
+            topic_joint_states = joint_state_topic
         try:
             self.model: RobotModel = load_robot(robot_model)
         except Px100Error as exc:
@@ -190,6 +212,11 @@ class InterbotixRobotXSCore:
         self._param_clients: Dict[str, object] = {}
         self._registers: Dict[str, Dict[str, int]] = {}
         self._modes: Dict[str, Tuple[str, str]] = {}
+        #: bag directories announced on recorder/ready (and of a Recorder given to us)
+        self.bag_paths: List[str] = []
+        self._recorder_event = threading.Event()
+        #: called on Ctrl-C after the goals are canceled (e.g. the gripper stops its drive)
+        self._interrupt_hooks: List = []
         for j in self.model.joint_names:
             self._registers[j] = {'Profile_Velocity': 2000, 'Profile_Acceleration': 300}
             self._modes[j] = ('position', 'time')
@@ -217,6 +244,7 @@ class InterbotixRobotXSCore:
         self._wait_for_peers()
         self.js_index_map = {n: i for i, n in enumerate(self.joint_states.name)}
         self._check_ik_mode()
+        self.wait_for_recorder(recorder)
         self.get_node().loginfo(
             f'\n\tRobot Name: {self.robot_name}\n\tRobot Model: {self.robot_model}')
         self.get_node().loginfo('Initialized InterbotixRobotXSCore!')
@@ -224,17 +252,13 @@ class InterbotixRobotXSCore:
     # ------------------------------------------------------------------ setup
     def _start_bringup(self, mode, node_kwargs: dict) -> None:
         from px100_control.client.inprocess import InProcessBringup, ProcessBringup
-        existing = _robot.get_bringup()
-        if existing is not None:
-            if existing.robot_name == self.robot_name:
-                return
-            raise InterbotixException(
-                f"a bringup for '{existing.robot_name}' is already running in this process")
+        if _robot.get_bringup(self.robot_name) is not None:
+            return  # a second client of the same robot (e.g. a standalone gripper) shares it
         cls = ProcessBringup if str(mode).lower() == 'process' else InProcessBringup
         bringup = cls(self.robot_model, self.robot_name,
                       real_time_factor=self.real_time_factor, **node_kwargs)
         bringup.start(context=self.robot_node.context)
-        _robot.set_bringup(bringup)
+        _robot.set_bringup(bringup, self.robot_name)
 
     def topic(self, name: str) -> str:
         """Return the absolute topic/service name ``/<robot_name>/<name>``."""
@@ -277,6 +301,77 @@ class InterbotixRobotXSCore:
         self.srv_reset = n.create_client(Trigger, self.topic('reset'), callback_group=cbg)
         self.srv_cancel = n.create_client(CancelGoal, self.topic('trajectory/cancel'),
                                           callback_group=cbg)
+        self.sub_recorder = n.create_subscription(
+            String, self.topic('recorder/ready'), self._recorder_cb, _LATCHED_MANY,
+            callback_group=cbg)
+
+    def _recorder_cb(self, msg: String) -> None:
+        if msg.data and msg.data not in self.bag_paths:
+            self.bag_paths.append(msg.data)
+        self._recorder_event.set()
+
+    def wait_for_recorder(self, recorder=None, timeout: Optional[float] = None) -> bool:
+        """
+        Wait until a recorder records everything this client sends (see ``recorder``).
+
+        :return: True when a recorder is ready (or none was asked for nor seen)
+        """
+        if recorder is None and os.environ.get('PX100_RECORDER', '').lower() in ('wait', '1'):
+            recorder = True
+        if recorder is False:
+            return True
+        timeout = self.connect_timeout if timeout is None else float(timeout)
+        if recorder is not None and recorder is not True:
+            ok = recorder.wait_ready(timeout)
+            path = getattr(recorder, 'output_dir', '')
+            if path and path not in self.bag_paths:
+                self.bag_paths.append(path)
+        elif recorder is True or self.robot_node.count_publishers(
+                self.topic('recorder/ready')) > 0 or any(
+                i.node_name == 'recorder' for i in
+                self.robot_node.get_subscriptions_info_by_topic(self.topic('trajectory/goal'))):
+            ok = self._recorder_event.wait(timeout if recorder is True else min(timeout, 5.0))
+        else:
+            return True
+        if not ok:
+            self.get_node().logwarn(
+                f'No recorder announced ready on {self.topic("recorder/ready")} within '
+                f'{timeout:.1f} s: the start of this run may be missing from the bag.')
+            return False
+        for pub in (self.pub_goal, self.pub_ik, self.pub_setpoints, self.pub_ik_path):
+            self._await_matched(pub, 1.0)
+        return True
+
+    def interrupt(self, settle: float = 0.5) -> str:
+        """
+        Ctrl-C: cancel this client's unfinished goals and stop driven joints; return a report.
+
+        trajectory_server decelerates a canceled goal to rest where the arm is; the report (one
+        line) names the canceled goals, where the arm holds [rad] and the bag directory.
+        """
+        with self._pending_lock:
+            running = [p for p in self._goals.values() if p.status not in TERMINAL]
+        canceled = [p for p in running if self.cancel_goal(p, timeout=0.5)]
+        for hook in list(self._interrupt_hooks):
+            try:
+                hook()
+            except Exception:  # noqa: B902 - the other hooks still run
+                pass
+        end = time.monotonic() + settle
+        while any(p.status not in TERMINAL for p in canceled) and time.monotonic() < end:
+            time.sleep(0.01)
+        name = self.robot_name or self.robot_model
+        what = ('canceled goal ' + ', '.join(stamp_id(_time_of(p.key)) for p in canceled)
+                if canceled else 'no goal was running')
+        try:
+            q = self.joint_positions(self.model.joint_names)
+            where = ', holding at ' + ' '.join(
+                f'{j}={v:.3f}' for j, v in zip(self.model.joint_names, q)) + ' rad'
+        except Exception:  # noqa: B902 - no joint states: say so
+            where = ', joint states unknown'
+        bags = self.bag_paths or _active_recorder_dirs()
+        bag = ('bag: ' + ', '.join(bags)) if bags else 'no bag recorded'
+        return f'{name} {what}{where}; {bag}'
 
     def _missing_peers(self) -> List[str]:
         """Return what is still missing, in words (empty when everything is there)."""
@@ -314,7 +409,7 @@ class InterbotixRobotXSCore:
                 self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(missing))
                 next_log = now + 2.0
             time.sleep(0.02)
-        bringup = _robot.get_bringup()
+        bringup = _robot.get_bringup(self.robot_name)
         problems = bringup.problems() if hasattr(bringup, 'problems') else ''
         if problems:
             missing.append(f'bringup processes: {problems}')
@@ -977,14 +1072,20 @@ class InterbotixRobotXSCore:
         mt, at = self._profile_times(joint_name)
         self.send_trajectory([joint_name], [[float(command)]], [mt], at)
 
-    def robot_write_trajectory(self, cmd_type: str, name: str, traj_type: str,
-                               raw_traj: Sequence[dict]) -> None:
+    def robot_write_trajectory(self, cmd_type: str, name: str, traj_type: str = None,
+                               raw_traj: Sequence[dict] = None, *,
+                               type: str = None) -> None:  # noqa: A002 - ROS 1 name
         """
         Command a position trajectory (non-blocking).
 
+        :param traj_type: 'position' (ROS 1 scripts pass it as ``type=``)
         :param raw_traj: list of ``{t [s]: [positions]}``; a point at t = 0 is taken as the
             start and skipped (trajectory_server starts from the measured state)
         """
+        if traj_type is None:
+            traj_type = type
+        if traj_type is None or raw_traj is None:
+            raise TypeError('robot_write_trajectory() needs traj_type (or type=) and raw_traj')
         names = self._names_of(cmd_type, name)
         if traj_type != 'position':
             self.get_node().logerror(

@@ -81,8 +81,12 @@ class InterbotixGripperXSInterface:
                                 f'{self.gripper_pressure * 100:.1f}%')
         core.get_node().loginfo('Initialized InterbotixGripperXSInterface!')
 
-    def gripper_state(self) -> None:
-        """Stop the PWM drive once the fingers reach the limit they were driven to (50 Hz)."""
+    def gripper_state(self, event=None) -> None:
+        """
+        Stop the PWM drive once the fingers reach the limit they were driven to (50 Hz).
+
+        :param event: unused (ROS 1 timer callbacks take the timer event)
+        """
         if not self.gripper_moving or self.core._torn_down:
             return
         try:
@@ -157,3 +161,42 @@ class InterbotixGripperXSInterface:
         """Return the distance between the fingers [m] (px100_control extension)."""
         left, right = self.core.joint_positions(list(self.spec.fingers[:2]))
         return float(left - right)
+
+
+class InterbotixGripperXS:
+    """
+    Standalone gripper (``interbotix_xs_modules.xs_robot.gripper.InterbotixGripperXS``).
+
+    Accepts the ROS 2 signature (``joint_state_topic``, ``logging_level``, ``node_name``) and
+    the ROS 1 one (``init_node``, 7th positional); ``.core`` (ROS 2) and ``.dxl`` (ROS 1) are the
+    core, ``.gripper`` the interface, ``shutdown()`` ends the API. ``grasp()`` closes and
+    ``release()`` opens, as in the manipulator's interface (the stale ROS 2 standalone class
+    has them swapped). px100_control keywords as for InterbotixManipulatorXS (``bringup``, ...).
+    """
+
+    def __init__(self, robot_model: str, gripper_name: str, robot_name: Optional[str] = None,
+                 gripper_pressure: float = 0.5, gripper_pressure_lower_limit: int = 150,
+                 gripper_pressure_upper_limit: int = 350,
+                 joint_state_topic: str = 'joint_states', logging_level=None,
+                 node_name: str = 'robot_manipulation', *, init_node: bool = True, **kwargs):
+        from rclpy.logging import LoggingSeverity
+        if isinstance(joint_state_topic, bool):  # ROS 1: the 7th positional is init_node
+            init_node, joint_state_topic = joint_state_topic, 'joint_states'
+        self.init_node = init_node  # ROS 1: unused (the client's node always exists)
+        self.core = InterbotixRobotXSCore(
+            robot_model, robot_name, topic_joint_states=joint_state_topic,
+            logging_level=LoggingSeverity.INFO if logging_level is None else logging_level,
+            node_name=node_name, **kwargs)
+        self.gripper = InterbotixGripperXSInterface(
+            self.core, gripper_name, gripper_pressure, gripper_pressure_lower_limit,
+            gripper_pressure_upper_limit)
+
+    @property
+    def dxl(self) -> InterbotixRobotXSCore:
+        """ROS 1 name of :attr:`core`."""
+        return self.core
+
+    def shutdown(self) -> None:
+        """Shut the API down (robot_shutdown)."""
+        from px100_control.client.robot import robot_shutdown
+        robot_shutdown()
