@@ -978,22 +978,27 @@ class InterbotixRobotXSCore:
     def robot_torque_enable(self, cmd_type: str, name: str, enable: bool,
                             timeout: float = 3.0) -> bool:
         """
-        Torque motors on or off through sim_driver's ``torque_enable`` service.
+        Torque motors on or off: one joint ('single'), a group ('arm') or everything ('all').
 
-        The simulated driver switches the whole robot; a single motor or group other than
-        'all'/'arm' is switched with it (a warning says so). Returns the service's success.
+        Sets sim_driver's ``torque_enable.<joint>`` parameters, so only the addressed joints
+        change (``robot_torque_enable('single', 'gripper', False)`` leaves the arm holding);
+        a joint switched back on holds where it is (call the arm's capture_joint_positions()
+        afterwards, as with Interbotix). Returns True when sim_driver applied it.
         """
         names = self._names_of(cmd_type, name)
-        if set(names) != set(self._names_of('group', 'all')):
-            self.get_node().logwarn(
-                f"sim_driver's torque_enable switches every joint; '{name}' is not "
-                'switched alone.')
-        if not self.srv_torque.wait_for_service(timeout_sec=timeout):
+        node = self._peer_node('commands/joint_setpoints', 'sim_driver')
+        if node is None:
             self.get_node().logerror(
-                f"Failed to find service '{self.topic('torque_enable')}'. Is sim_driver running "
-                f"under namespace '{self.ns or '/'}'?")
+                f"Failed to find sim_driver on '{self.topic('commands/joint_setpoints')}'. Is "
+                f"sim_driver running under namespace '{self.ns or '/'}'?")
             return False
-        return self._call(self.srv_torque, SetBool.Request(data=bool(enable)), timeout)
+        problem = self.set_remote_parameters(
+            node, {f'torque_enable.{j}': bool(enable) for j in names}, timeout)
+        if problem:
+            self.get_node().logerror(f"Torque {'on' if enable else 'off'} of {cmd_type} "
+                                     f"'{name}' failed: {problem}")
+            return False
+        return True
 
     def robot_reboot_motors(self, cmd_type: str, name: str, enable: bool,
                             smart_reboot: bool = False) -> None:

@@ -367,6 +367,9 @@ class ArmSimulator:
         self.set_object_width(config.object_width)
         self.time = 0.0
         self.torque_enabled = True
+        #: torque per arm joint (False: that servo coasts) and of the gripper
+        self.joint_torque = [True] * self.n
+        self.gripper_torque = True
         self.reset()
 
     # --- joint losses (URDF <dynamics>) ---------------------------------------------------------
@@ -407,6 +410,8 @@ class ArmSimulator:
         self.hold(self.model.sleep)
         self._step_count = 0
         self.torque_enabled = True
+        self.joint_torque = [True] * self.n
+        self.gripper_torque = True
         if self.gripper_name:
             self.g_theta = 0.0
             self.g_omega = 0.0
@@ -442,23 +447,41 @@ class ArmSimulator:
         self._h = None
         self._factor = None
 
-    def set_torque_enabled(self, enabled: bool) -> None:
+    def set_torque_enabled(self, enabled: bool, joints: Optional[Sequence[str]] = None) -> None:
         """
-        Switch all servos' torque on or off.
+        Switch servos' torque on or off: all of them, or only ``joints`` (arm joints, gripper).
 
-        Torque on (as the DYNAMIXEL does) makes each joint hold where it is now: setpoints =
-        present positions, integrators cleared; the gripper effort is zeroed.
+        Torque on (as the DYNAMIXEL does) makes a joint hold where it is now: setpoint =
+        present position, integrator cleared; the gripper effort is zeroed.
+        :raises UnknownJointError: a name that is not an arm joint or the gripper
         """
         enabled = bool(enabled)
-        if enabled and not self.torque_enabled:
-            self.q_ref = list(self.q)
-            self.qd_ref = [0.0] * self.n
-            for pid in self.pids:
-                pid.reset()
-            if self.gripper_name:
-                self.g_ref, self.g_ref_vel, self.g_command = self.g_theta, 0.0, 0.0
-                self.gripper_pid.reset()
-        self.torque_enabled = enabled
+        names = list(self.command_joints) if joints is None else [str(j) for j in joints]
+        for name in names:
+            if name not in self.command_joints:
+                raise UnknownJointError(name, self.command_joints)
+        for name in names:
+            if name == self.gripper_name:
+                if enabled and not self.gripper_torque:
+                    self.g_ref, self.g_ref_vel, self.g_command = self.g_theta, 0.0, 0.0
+                    self.gripper_pid.reset()
+                self.gripper_torque = enabled
+                continue
+            i = self.names.index(name)
+            if enabled and not self.joint_torque[i]:
+                self.q_ref[i] = self.q[i]
+                self.qd_ref[i] = 0.0
+                self.pids[i].reset()
+            self.joint_torque[i] = enabled
+        self.torque_enabled = all(self.joint_torque) and (
+            self.gripper_torque or not self.gripper_name)
+
+    def torque_states(self) -> Dict[str, bool]:
+        """Return {joint: torque on} for the arm joints and the gripper."""
+        out = dict(zip(self.names, self.joint_torque))
+        if self.gripper_name:
+            out[self.gripper_name] = self.gripper_torque
+        return out
 
     def set_gains(self, joint: str, gains: PidGains) -> None:
         """Use new PID gains on one joint (arm joint or gripper)."""
@@ -555,7 +578,7 @@ class ArmSimulator:
         dt = self.dt
         n = self.n
         q, qd = self.q, self.qd
-        on = self.torque_enabled
+        on = tuple(self.joint_torque)
         if self._step_count % self.config.dynamics_divider == 0 or self._M is None:
             self._M, self._h = self.dynamics.evaluate_lists(q, qd)
             self._factor = None
@@ -564,7 +587,7 @@ class ArmSimulator:
         if factor is None or factor[0] != on or factor[1] != dt:
             # iteration matrix M + dt B (B: URDF damping + back-EMF while torque is on),
             # factored once per dynamics refresh
-            damp = [self._damping[i] + (self.servos[i].back_emf_damping if on else 0.0)
+            damp = [self._damping[i] + (self.servos[i].back_emf_damping if on[i] else 0.0)
                     for i in range(n)]
             A = [row[:] for row in self._M]
             for i in range(n):
@@ -576,9 +599,9 @@ class ArmSimulator:
         t = self.time
         drive = [0.0] * n
         rhs = [0.0] * n
-        if on:
-            pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
-            for i in range(n):
+        pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
+        for i in range(n):
+            if on[i]:
                 v_ref = qd_ref[i] if t < ff_until[i] else 0.0
                 u = pids[i].step(q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
                 servo = self.servos[i]
@@ -587,8 +610,7 @@ class ArmSimulator:
                 duty = lim if duty > lim else (-lim if duty < -lim else duty)
                 drive[i] = d = stall * duty
                 rhs[i] = d - h[i] - damp[i] * qd[i]
-        else:
-            for i in range(n):
+            else:
                 rhs[i] = -h[i] - damp[i] * qd[i]
         acc = _cholesky_solve(L, rhs)
         new_q = [0.0] * n
@@ -599,7 +621,7 @@ class ArmSimulator:
             # Coulomb friction: an impulse up to dt * friction, which may stop the joint
             dv = fric[i]
             v = v - dv if v > dv else (v + dv if v < -dv else 0.0)
-            if on:
+            if on[i]:
                 vl = vel_limit[i]
                 v = vl if v > vl else (-vl if v < -vl else v)
             x = q[i] + dt * v
@@ -609,10 +631,10 @@ class ArmSimulator:
                 x, v = upper[i], min(v, 0.0)
             new_q[i] = x
             qd[i] = v
-            effort[i] = drive[i] - (damp[i] - viscous[i]) * v if on else 0.0
+            effort[i] = drive[i] - (damp[i] - viscous[i]) * v if on[i] else 0.0
         self.q = new_q
         if self.gripper_name:
-            self._step_gripper(dt, on)
+            self._step_gripper(dt, self.gripper_torque)
         self.time = t + dt
 
     def _step_gripper(self, dt: float, on: bool) -> None:

@@ -296,7 +296,7 @@ class RecorderNode(Node):
     def _add_channel(self, topic: str) -> None:
         """Add a subscribed-ahead topic to the bag (at its first message: publishers' QoS)."""
         type_name, latched = self._ahead[topic]
-        pubs = [p for p in self.get_publishers_info_by_topic(topic)]
+        pubs = list(self.get_publishers_info_by_topic(topic))
         offered = [qos_to_dict(p.qos_profile) for p in pubs] or [qos_to_dict(QoSProfile(
             depth=1 if latched else 10, reliability=ReliabilityPolicy.RELIABLE,
             durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched

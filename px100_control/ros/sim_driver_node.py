@@ -11,7 +11,11 @@ A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
 - sub ``commands/joint_setpoints`` (sensor_msgs/JointState): position (+ optional velocity
   feed-forward) for any subset of joints, or effort [N*m] for the gripper alone; a refused
   message is logged and published on ``/diagnostics`` and nothing of it is applied;
-- services ``torque_enable`` (std_srvs/SetBool), ``reset`` (std_srvs/Trigger).
+- services ``torque_enable`` (std_srvs/SetBool: every joint), ``reset`` (std_srvs/Trigger).
+
+Torque per joint: parameter ``torque_enable.<joint>`` (bool, every arm joint and the gripper;
+``ros2 param set /px100/sim_driver torque_enable.gripper false`` switches off only the
+gripper); the ``torque_enable`` service sets all of them, ``reset`` turns them all on.
 
 Time. The physics runs at ``control_rate`` in fixed steps, advanced by the elapsed time in chunks
 (no dependence on timer precision):
@@ -132,6 +136,9 @@ class SimDriverNode(Node):
             if error:
                 raise Px100Error(error)
             self.sim.set_gains(joint, self._to_gains(values, joint))
+        for joint in self._gain_joints:
+            self.declare_parameter(f'torque_enable.{joint}', True, ParameterDescriptor(
+                description=f'torque of {joint} on (false: the servo coasts)'))
         for note in self.sim.dynamics.notes:
             self.get_logger().info(f'dynamics: {note}')
         self._lock = threading.Lock()
@@ -315,6 +322,15 @@ class SimDriverNode(Node):
                     values = {f: self.get_parameter(k).value for f, k in zip(GAIN_FIELDS, keys)}
                     self.sim.set_gains(joint, self._to_gains(values, joint))
                     self.get_logger().info(f'gains of {joint}: {self.sim.gains(joint)}')
+            torque = {n[len('torque_enable.'):]: bool(v) for n, v in changed.items()
+                      if n.startswith('torque_enable.')}
+            if torque:
+                self._catch_up()
+                for joint, on in torque.items():
+                    self.sim.set_torque_enabled(on, [joint])
+                if len(torque) < len(self._gain_joints):
+                    self.get_logger().info('torque ' + ', '.join(
+                        f"{j} {'on' if on else 'off'}" for j, on in torque.items()))
             if 'object_width' in changed:
                 self.sim.set_object_width(float(changed['object_width']))
             if 'dynamics_divider' in changed:
@@ -647,18 +663,22 @@ class SimDriverNode(Node):
             self._refuse(str(exc), msg.name)
 
     def _on_torque(self, request, response):
-        with self._lock:
-            self._catch_up()
-            self.sim.set_torque_enabled(request.data)
+        self._set_all_torque(bool(request.data))
         response.success = True
         response.message = 'torque on' if request.data else 'torque off'
         self.get_logger().info(f'{response.message} (all joints)')
         return response
 
+    def _set_all_torque(self, on: bool) -> None:
+        """Set every ``torque_enable.<joint>`` parameter (the callback applies them)."""
+        self.set_parameters([Parameter(f'torque_enable.{j}', value=on)
+                             for j in self._gain_joints])
+
     def _on_reset(self, request, response):
         with self._lock:
             self._catch_up()
             self.sim.reset()
+        self._set_all_torque(True)
         response.success = True
         response.message = 'reset to the sleep pose'
         self.get_logger().info(response.message)
