@@ -26,7 +26,7 @@ def _still(bot, seconds=0.3):
 
 
 def test_bad_arguments_are_named_refused_and_nothing_moves(bot):
-    """Refuse NaN, inf, wrong shapes and mm targets: False, the reason names the argument, no move."""
+    """Refuse NaN, inf, wrong shapes, mm targets: False, the argument named, no move."""
     arm = bot.arm
     assert arm.set_joint_positions([0.0, -0.5, 0.5, 0.0])
     commands = arm.get_joint_commands()
