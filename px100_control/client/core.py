@@ -235,6 +235,7 @@ class InterbotixRobotXSCore:
         self.robot_node = node
         self.robot_node.get_logger().set_level(logging_level)
         _robot.register_robot(self)
+        self._started_bringup = False
         if bringup:
             self._start_bringup(bringup, node_kwargs or {})
             if connect_timeout is None and 'PX100_CONNECT_TIMEOUT' not in os.environ:
@@ -242,6 +243,7 @@ class InterbotixRobotXSCore:
         self._make_interfaces()
         _robot.ensure_spinning(self.robot_node)
         self._wait_for_peers()
+        self._check_duplicates()
         self.js_index_map = {n: i for i, n in enumerate(self.joint_states.name)}
         self._check_ik_mode()
         self.wait_for_recorder(recorder)
@@ -259,6 +261,7 @@ class InterbotixRobotXSCore:
                       real_time_factor=self.real_time_factor, **node_kwargs)
         bringup.start(context=self.robot_node.context)
         _robot.set_bringup(bringup, self.robot_name)
+        self._started_bringup = True
 
     def topic(self, name: str) -> str:
         """Return the absolute topic/service name ``/<robot_name>/<name>``."""
@@ -421,6 +424,24 @@ class InterbotixRobotXSCore:
             '(or PX100_BRINGUP=1) to run them in this process.')
         self.get_node().logerror(message)
         raise InterbotixException(message)
+
+    def duplicates(self) -> str:
+        """Return a sentence naming a second driver / trajectory_server here ('' if none)."""
+        from px100_control.ros.peers import duplicates_message, live_peers
+        return duplicates_message(live_peers(self.robot_node, self.ns or '/'), self.ns)
+
+    def _check_duplicates(self) -> None:
+        """Refuse to run beside the nodes this call started twice; warn otherwise."""
+        problem = self.duplicates()
+        if not problem:
+            return
+        if self._started_bringup:
+            message = (f'{problem} This script started its own nodes (bringup=True) although '
+                       f"nodes already run under '{self.ns or '/'}': connect to those instead "
+                       '(bringup=False, PX100_BRINGUP unset).')
+            self.get_node().logerror(message)
+            raise InterbotixException(message)
+        self.get_node().logwarn(problem)
 
     def _teardown(self) -> None:
         """Release waiters (called by robot_shutdown)."""
@@ -734,6 +755,9 @@ class InterbotixRobotXSCore:
             time.sleep(0.01)  # the reason comes on /diagnostics, just after the status
         state = STATUS_NAMES.get(pending.status, 'UNKNOWN')
         reason = pending.reason or 'see the trajectory_server log / /diagnostics'
+        duplicates = self.duplicates()
+        if duplicates:
+            reason += f' ({duplicates})'
         return False, f'goal {gid} ended {state}: {reason}'
 
     def goal_status(self, pending: _Pending) -> str:

@@ -77,6 +77,8 @@ CATCH_UP = 2.0
 CHUNK_BUDGET = 0.008
 #: most of a CPU core the physics may need to follow the clock at a requested control_rate
 MAX_PHYSICS_LOAD = 0.8
+#: how often the graph is searched for a second driver in the namespace [s]
+PEER_CHECK_PERIOD = 2.0
 
 _CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
                 'clock_rate', 'dynamics_divider', 'object_width', 'gains_units')
@@ -194,6 +196,8 @@ class SimDriverNode(Node):
                                                 name='sim_driver_physics')
         self._physics_thread.start()
         self._make_timers()
+        self._duplicates = ''
+        self.create_timer(PEER_CHECK_PERIOD, self._check_peers, callback_group=self._group)
         mode = (f'own clock, real_time_factor {self._rtf:g}, /clock at {self._clock_rate:g} Hz'
                 if self._master else 'following the node clock')
         self.get_logger().info(
@@ -644,6 +648,23 @@ class SimDriverNode(Node):
         diag = DiagnosticArray(status=[status])
         diag.header.stamp = self.get_clock().now().to_msg()
         self.pub_diag.publish(diag)
+
+    def _check_peers(self) -> None:
+        """Log (once per change) and report on /diagnostics a second driver in the namespace."""
+        from px100_control.ros.peers import duplicates_message, live_peers
+        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
+        peers = live_peers(self, ns)
+        message = duplicates_message({'drivers': peers['drivers']}, ns)
+        if message and message != self._duplicates:
+            self.get_logger().error(message)
+            status = DiagnosticStatus(level=DiagnosticStatus.ERROR,
+                                      name=f'{self.get_fully_qualified_name()}: peers',
+                                      message=message,
+                                      hardware_id=robot_name(self) or self.model.name)
+            diag = DiagnosticArray(status=[status])
+            diag.header.stamp = self.get_clock().now().to_msg()
+            self.pub_diag.publish(diag)
+        self._duplicates = message
 
     # --- callbacks -----------------------------------------------------------------------------
     def _catch_up(self) -> None:

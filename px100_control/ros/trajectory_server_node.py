@@ -195,6 +195,8 @@ class TrajectoryServerNode(Node):
         self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
         self._watchdog = self.create_timer(WATCHDOG_PERIOD, self._on_watchdog,
                                            clock=self._steady)
+        self._duplicates = ''
+        self.create_timer(2.0, self._check_peers, clock=self._steady)
         self._setpoint = JointState()
         self._setpoint.name = list(self._names)
         self._publish_status()
@@ -553,6 +555,16 @@ class TrajectoryServerNode(Node):
         lo = np.minimum(np.minimum(q_a, q_b), q_c)
         hi = np.maximum(np.maximum(q_a, q_b), q_c)
         return np.maximum(np.maximum(self._meas - hi, lo - self._meas), 0.0)
+
+    def _check_peers(self) -> None:
+        """Log (once per change) a second trajectory server in the namespace, by name."""
+        from px100_control.ros.peers import duplicates_message, live_peers
+        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
+        peers = live_peers(self, ns)
+        message = duplicates_message({'trajectory_servers': peers['trajectory_servers']}, ns)
+        if message and message != self._duplicates:
+            self.get_logger().error(message)
+        self._duplicates = message
 
     def _on_watchdog(self) -> None:
         """
