@@ -332,6 +332,10 @@ class InterbotixArmXSInterface:
         return max(moving_time, 1.02 * t_min)
 
     def _execute(self, names, points, times, accel_time, blocking, duration) -> bool:
+        for check in list(self.core._before_arm_move):
+            warning = check()
+            if warning:
+                self._note(warning)
         try:
             pending = self.core.send_trajectory(names, points, times, accel_time)
         except InterbotixException as exc:

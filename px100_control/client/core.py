@@ -217,6 +217,8 @@ class InterbotixRobotXSCore:
         self._recorder_event = threading.Event()
         #: called on Ctrl-C after the goals are canceled (e.g. the gripper stops its drive)
         self._interrupt_hooks: List = []
+        #: called before an arm move; each returns a warning or None (the gripper's timing)
+        self._before_arm_move: List = []
         for j in self.model.joint_names:
             self._registers[j] = {'Profile_Velocity': 2000, 'Profile_Acceleration': 300}
             self._modes[j] = ('position', 'time')
@@ -341,8 +343,19 @@ class InterbotixRobotXSCore:
                 f'No recorder announced ready on {self.topic("recorder/ready")} within '
                 f'{timeout:.1f} s: the start of this run may be missing from the bag.')
             return False
-        for pub in (self.pub_goal, self.pub_ik, self.pub_setpoints, self.pub_ik_path):
-            self._await_matched(pub, 1.0)
+        pubs = [self.pub_goal, self.pub_ik, self.pub_setpoints, self.pub_ik_path]
+        node = getattr(recorder, 'node', None)
+        if node is not None:  # a Recorder of this process: the topics it subscribes
+            pubs = [p for p in pubs if p.topic_name in getattr(node, '_subs', {})]
+        # the recorder is subscribed; now this client must see (discover) and match it, or the
+        # first messages go out before the recorder is among their readers
+        end = time.monotonic() + (timeout if node is not None else min(timeout, 3.0))
+        for pub in pubs:
+            while time.monotonic() < end and not any(
+                    i.node_name == 'recorder' for i in
+                    self.robot_node.get_subscriptions_info_by_topic(pub.topic_name)):
+                time.sleep(0.01)
+            self._await_matched(pub, max(0.0, end - time.monotonic()))
         return True
 
     def interrupt(self, settle: float = 0.5) -> str:
