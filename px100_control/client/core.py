@@ -14,8 +14,14 @@ ros_interfaces.md), in namespace ``/<robot_name>``:
 - torque through ``sim_driver``'s ``torque_enable`` (std_srvs/SetBool) service.
 
 The xs_sdk services are emulated: robot info from the RobotModel (URDF limits and sleep pose),
-operating modes and the Profile_Velocity / Profile_Acceleration registers kept here (they are
-what the arm's moving_time / accel_time become), PID gains and reboots logged as not applicable.
+the Profile_Velocity / Profile_Acceleration registers kept here (they are what the arm's
+moving_time / accel_time become), PID gains and reboots logged as not applicable. Operating
+modes as xs_sdk's: position modes move through trajectory_server; 'velocity' [rad/s],
+'current' [mA, torque through the XL430 figures, :data:`TORQUE_PER_AMP`] and 'pwm' [+-885]
+put the joints of sim_driver in velocity / torque / duty control (its ``operating_mode.<joint>``
+parameters) and send the commands on ``commands/joint_setpoints``; positions for a joint in
+another mode are refused, never sent as something else. Torque on/off per joint, group or all
+through sim_driver's ``torque_enable.<joint>`` parameters.
 
 Bounded failure: the constructor waits at most ``connect_timeout`` (keyword, or env
 ``PX100_CONNECT_TIMEOUT``, default 10 s) for joint_states and the IK / trajectory peers and then
@@ -69,6 +75,21 @@ _LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 _LATCHED_MANY = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                            durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+#: Interbotix operating mode -> sim_driver's operating_mode (see robot_set_operating_modes)
+DRIVER_MODES = {'position': '', 'ext_position': '', 'current_based_position': '',
+                'velocity': 'velocity', 'current': 'torque', 'pwm': 'duty'}
+#: the modes in which commands are positions
+POSITION_MODES = ('position', 'ext_position', 'current_based_position')
+#: DYNAMIXEL XL430-W250 figures (ROBOTIS e-Manual, XL430-W250 specifications, at 11.1 V):
+#: stall torque 1.4 N*m at a stall current of 1.3 A, PWM_Limit 885 (= 100 % duty). The
+#: XL430 has no current control mode of its own; 'current' is emulated with its torque
+#: constant, stall torque / stall current = 1.077 N*m/A at the output shaft.
+STALL_TORQUE = 1.4
+STALL_CURRENT_MA = 1300.0
+TORQUE_PER_AMP = STALL_TORQUE / (STALL_CURRENT_MA / 1000.0)
+PWM_LIMIT = 885.0
 
 
 def _active_recorder_dirs() -> List[str]:
@@ -368,6 +389,11 @@ class InterbotixRobotXSCore:
         with self._pending_lock:
             running = [p for p in self._goals.values() if p.status not in TERMINAL]
         canceled = [p for p in running if self.cancel_goal(p, timeout=0.5)]
+        moded = [j for j in self.model.joint_names if self.mode_of(j) not in POSITION_MODES]
+        if moded:  # velocity / current / pwm joints: position mode holds them where they are
+            node = self._peer_node('commands/joint_setpoints', 'sim_driver')
+            if node is not None:
+                self.set_remote_parameters(node, {f'operating_mode.{j}': '' for j in moded}, 0.5)
         for hook in list(self._interrupt_hooks):
             try:
                 hook()
@@ -604,8 +630,15 @@ class InterbotixRobotXSCore:
         :param points: (k, len(joint_names)) positions [rad]
         :param times: (k,) strictly increasing time_from_start [s]; one point = move there
         :param accel_time: [s] trapezoid ramp time for a one-point goal (None: server default)
-        :raises InterbotixException: no trajectory_server is listening
+        :raises InterbotixException: no trajectory_server is listening; a joint is not in a
+            position mode (its positions would be executed as something else)
         """
+        moded = [f"'{n}' ({self.mode_of(n)})" for n in joint_names
+                 if n in self._modes and self.mode_of(n) not in POSITION_MODES]
+        if moded:
+            raise InterbotixException(
+                f"joints {', '.join(moded)} are not in a position mode: positions are not "
+                "sent (robot_set_operating_modes(..., 'position') first)")
         if self.pub_goal.get_subscription_count() == 0:
             raise InterbotixException(
                 f"no trajectory_server subscribes to '{self.topic('trajectory/goal')}': is "
@@ -899,13 +932,16 @@ class InterbotixRobotXSCore:
             time.sleep(0.005)
 
     # ------------------------------------------------------------- setpoints
-    def publish_setpoints(self, names: Sequence[str], positions=None, efforts=None) -> None:
-        """Publish a JointState setpoint straight to sim_driver (position and/or effort)."""
+    def publish_setpoints(self, names: Sequence[str], positions=None, efforts=None,
+                          velocities=None) -> None:
+        """Publish a JointState setpoint straight to sim_driver (position, velocity or effort)."""
         msg = JointState()
         msg.header.stamp = self.robot_node.get_clock().now().to_msg()
         msg.name = [str(n) for n in names]
         if positions is not None:
             msg.position = [float(v) for v in positions]
+        if velocities is not None:
+            msg.velocity = [float(v) for v in velocities]
         if efforts is not None:
             msg.effort = [float(v) for v in efforts]
         self._await_matched(self.pub_setpoints)
@@ -931,29 +967,96 @@ class InterbotixRobotXSCore:
 
     def robot_set_operating_modes(self, cmd_type: str, name: str, mode: str,
                                   profile_type: str = 'velocity', profile_velocity: int = 0,
-                                  profile_acceleration: int = 0) -> None:
+                                  profile_acceleration: int = 0) -> bool:
         """
-        Set the operating mode of a group or motor (emulated: remembered, reported by info).
+        Set the operating mode of a group or motor, emulated as xs_sdk does (module docstring).
 
-        The arm is always driven in position mode through trajectory_server, the gripper in
-        effort (pwm/current) or position mode; other modes are refused with an error log.
-        With profile_type 'time', profile_velocity / profile_acceleration [ms] set the
-        Profile_Velocity / Profile_Acceleration registers.
+        'position', 'ext_position', 'current_based_position': positions [rad] through
+        trajectory_server; 'velocity': commands in rad/s; 'current': commands in mA, torque
+        control through the servo model (:data:`TORQUE_PER_AMP`); 'pwm': commands in PWM units
+        (+-885 = full duty). sim_driver switches the joints (parameter
+        ``operating_mode.<joint>``) and they hold. Any other mode is refused with the reason and
+        nothing changes. With profile_type 'time', profile_velocity / profile_acceleration [ms]
+        set the Profile_Velocity / Profile_Acceleration registers.
+        :return: True when applied (Interbotix returns None)
         """
         names = self._names_of(cmd_type, name)
+        if mode not in DRIVER_MODES:
+            self.get_node().logerror(
+                f"Operating mode '{mode}' is not emulated (supported: "
+                f"{', '.join(DRIVER_MODES)}); {cmd_type} '{name}' keeps "
+                f"'{self._modes[names[0]][0]}' and its commands are not executed as "
+                'anything else.')
+            return False
         g = self.model.gripper
+        values = {}
         for j in names:
-            allowed = ('pwm', 'current', 'position') if g is not None and j == g.joint \
-                else ('position', 'ext_position', 'current_based_position')
-            if mode not in allowed:
-                self.get_node().logerror(
-                    f"Operating mode '{mode}' is not emulated for '{j}' (supported: "
-                    f"{', '.join(allowed)}); keeping '{self._modes[j][0]}'.")
-                continue
+            target = DRIVER_MODES[mode]
+            if g is not None and j == g.joint and mode == 'pwm':
+                target = ''  # the gripper's default mode takes its PWM as effort [N*m]
+            values[f'operating_mode.{j}'] = target
+        arm = [j for j in names if g is None or j != g.joint]
+        if arm and any(v for k, v in values.items() if k[len('operating_mode.'):] in arm):
+            self._cancel_running()  # a running move must not fight the new mode
+        node = self._peer_node('commands/joint_setpoints', 'sim_driver')
+        problem = (f"no sim_driver on '{self.topic('commands/joint_setpoints')}'"
+                   if node is None else self.set_remote_parameters(node, values))
+        if problem:
+            self.get_node().logerror(f"Operating mode '{mode}' of {cmd_type} '{name}' not set: "
+                                     f'{problem}')
+            return False
+        for j in names:
             self._modes[j] = (mode, profile_type)
             if profile_type == 'time':
                 self._registers[j]['Profile_Velocity'] = int(profile_velocity)
                 self._registers[j]['Profile_Acceleration'] = int(profile_acceleration)
+        return True
+
+    def _cancel_running(self) -> None:
+        """Cancel this client's unfinished goals and wait (briefly) for them to end."""
+        with self._pending_lock:
+            running = [p for p in self._goals.values() if p.status not in TERMINAL]
+        for p in running:
+            self.cancel_goal(p, timeout=0.5)
+        end = time.monotonic() + 1.0
+        while any(p.status not in TERMINAL for p in running) and time.monotonic() < end:
+            time.sleep(0.01)
+
+    def mode_of(self, joint: str) -> str:
+        """Return the Interbotix operating mode of a joint ('position', 'current', ...)."""
+        return self._modes[joint][0]
+
+    def _effort_commands(self, names: Sequence[str], commands: Sequence[float]) -> None:
+        """
+        Send velocity / current / pwm commands (xs_sdk units) of joints in those modes.
+
+        :raises InterbotixException: a command beyond the servo's range (nothing is sent)
+        """
+        groups: Dict[str, List[Tuple[str, float]]] = {}
+        for j, c in zip(names, commands):
+            groups.setdefault(self.mode_of(j), []).append((j, float(c)))
+        out = []
+        for mode, items in groups.items():
+            if mode == 'velocity':
+                out.append(('velocities', items))
+            elif mode == 'current':
+                for j, c in items:
+                    if abs(c) > STALL_CURRENT_MA:
+                        raise InterbotixException(
+                            f"current {c:g} mA for '{j}' exceeds the XL430-W250's stall "
+                            f'current ({STALL_CURRENT_MA:g} mA): not sent')
+                out.append(('efforts', [(j, c / 1000.0 * TORQUE_PER_AMP) for j, c in items]))
+            elif mode == 'pwm':
+                g = self.model.gripper
+                for j, c in items:
+                    if abs(c) > PWM_LIMIT:
+                        raise InterbotixException(f"PWM {c:g} for '{j}' is beyond the PWM "
+                                                  f'limit +-{PWM_LIMIT:g}: not sent')
+                out.append(('efforts', [
+                    (j, c / PWM_LIMIT * STALL_TORQUE if g is not None and j == g.joint
+                     else c / PWM_LIMIT) for j, c in items]))
+        for kind, items in out:
+            self.publish_setpoints([j for j, _ in items], **{kind: [v for _, v in items]})
 
     def robot_set_motor_pid_gains(self, cmd_type: str, name: str, kp_pos: int, ki_pos: int = 0,
                                   kd_pos: int = 0, k1: int = 0, k2: int = 0, kp_vel: int = 100,
@@ -1069,10 +1172,11 @@ class InterbotixRobotXSCore:
 
     def robot_write_commands(self, group_name: str, commands: Sequence[float]) -> None:
         """
-        Command a group (non-blocking), like JointGroupCommand in position mode.
+        Command a group (non-blocking), like JointGroupCommand, in the group's operating mode.
 
-        The move lasts the group's Profile_Velocity register [ms] (time profile), with
-        Profile_Acceleration [ms] ramps, through trajectory_server.
+        Position modes: positions [rad]; the move lasts the Profile_Velocity register [ms]
+        (time profile) with Profile_Acceleration [ms] ramps, through trajectory_server.
+        Velocity: rad/s; current: mA; pwm: PWM units (see robot_set_operating_modes).
         """
         names = self._names_of('group', group_name)
         cmds = [float(c) for c in commands]
@@ -1081,8 +1185,22 @@ class InterbotixRobotXSCore:
                 f'Number of commands ({len(cmds)}) does not match the number of joints in group '
                 f"'{group_name}' ({len(names)}). Will not execute.")
             return
+        bad = next((f'command {i} ({names[i]}) is {c}' for i, c in enumerate(cmds)
+                    if not math.isfinite(c)), None)
+        if bad:
+            self.get_node().logerror(f'{bad}. Will not execute.')
+            return
         g = self.model.gripper
-        arm = [(n, c) for n, c in zip(names, cmds) if g is None or n != g.joint]
+        moded = [(n, c) for n, c in zip(names, cmds) if self.mode_of(n) not in POSITION_MODES
+                 and (g is None or n != g.joint)]
+        if moded:
+            try:
+                self._effort_commands([n for n, _ in moded], [c for _, c in moded])
+            except InterbotixException as exc:
+                self.get_node().logerror(f'{exc}. Will not execute.')
+                return
+        arm = [(n, c) for n, c in zip(names, cmds) if (g is None or n != g.joint)
+               and self.mode_of(n) in POSITION_MODES]
         if g is not None and g.joint in names:
             self.robot_write_joint_command(g.joint, cmds[names.index(g.joint)])
         if arm:
@@ -1097,19 +1215,41 @@ class InterbotixRobotXSCore:
 
     def robot_write_joint_command(self, joint_name: str, command: float) -> None:
         """
-        Command one motor (non-blocking), like JointSingleCommand.
+        Command one motor (non-blocking), like JointSingleCommand, in its operating mode.
 
-        Gripper in pwm/current mode: ``command`` is PWM, sent as an effort setpoint [N*m];
-        in position mode a position [rad]. An arm joint moves through trajectory_server.
+        Gripper in pwm mode: ``command`` is PWM, sent as an effort setpoint [N*m]
+        (:func:`~px100_control.client.gripper.pwm_to_effort`); current: mA; position: rad. An
+        arm joint in a position mode moves through trajectory_server; velocity / current / pwm
+        as robot_write_commands.
         """
         names = self._names_of('single', joint_name)
+        if not math.isfinite(float(command)):
+            self.get_node().logerror(f"command for '{joint_name}' is {command}. Will not "
+                                     'execute.')
+            return
         g = self.model.gripper
+        mode = self.mode_of(names[0])
         if g is not None and names[0] == g.joint:
             from px100_control.client.gripper import pwm_to_effort
-            if self._modes[g.joint][0] == 'position':
+            if mode in POSITION_MODES:
                 self.publish_setpoints([g.joint], positions=[float(command)])
-            else:
+            elif mode == 'pwm':
+                if abs(float(command)) > PWM_LIMIT:
+                    self.get_node().logerror(f'PWM {command} for the gripper is beyond the PWM '
+                                             f'limit +-{PWM_LIMIT:g}. Will not execute.')
+                    return
                 self.publish_setpoints([g.joint], efforts=[pwm_to_effort(float(command))])
+            else:
+                try:
+                    self._effort_commands([g.joint], [float(command)])
+                except InterbotixException as exc:
+                    self.get_node().logerror(f'{exc}. Will not execute.')
+            return
+        if mode not in POSITION_MODES:
+            try:
+                self._effort_commands([joint_name], [float(command)])
+            except InterbotixException as exc:
+                self.get_node().logerror(f'{exc}. Will not execute.')
             return
         mt, at = self._profile_times(joint_name)
         self.send_trajectory([joint_name], [[float(command)]], [mt], at)

@@ -119,7 +119,7 @@ class InterbotixGripperXSInterface:
                 pos >= self.left_finger_upper_limit - FINGER_TOLERANCE) or \
                 (self.gripper_command < 0 and
                  pos <= self.left_finger_lower_limit + FINGER_TOLERANCE):
-            self.core.publish_setpoints([self.gripper_name], efforts=[0.0])
+            self.core.robot_write_joint_command(self.gripper_name, 0.0)
             self.gripper_command = 0.0
             self.gripper_moving = False
 
@@ -129,11 +129,17 @@ class InterbotixGripperXSInterface:
 
         Nothing is sent when the fingers already are at that side's limit.
         """
+        mode = self.core.mode_of(self.gripper_name)
+        if mode not in ('pwm', 'current'):
+            self.core.get_node().logerror(
+                f"Gripper '{self.gripper_name}' is in {mode} mode: its effort {effort:g} is not "
+                "sent (robot_set_operating_modes('single', 'gripper', 'pwm') first).")
+            return
         pos = self.get_finger_position()
         if (effort > 0 and pos < self.left_finger_upper_limit - FINGER_TOLERANCE) or \
                 (effort < 0 and pos > self.left_finger_lower_limit + FINGER_TOLERANCE):
             self.gripper_command = float(effort)
-            self.core.publish_setpoints([self.gripper_name], efforts=[pwm_to_effort(effort)])
+            self.core.robot_write_joint_command(self.gripper_name, float(effort))
             self.gripper_moving = True
             self.core.sleep(delay)
 

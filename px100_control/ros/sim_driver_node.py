@@ -17,6 +17,14 @@ Torque per joint: parameter ``torque_enable.<joint>`` (bool, every arm joint and
 ``ros2 param set /px100/sim_driver torque_enable.gripper false`` switches off only the
 gripper); the ``torque_enable`` service sets all of them, ``reset`` turns them all on.
 
+Control mode per joint: parameter ``operating_mode.<joint>`` (string): '' (default: position;
+the gripper takes position or effort), 'position', 'velocity', 'torque' or 'duty'. The joint's
+setpoints on ``commands/joint_setpoints`` are then ``position`` [rad] (+ ``velocity``
+feed-forward), ``velocity`` alone [rad/s], ``effort`` [N*m] (torque: DYNAMIXEL current
+control) or ``effort`` as PWM duty in [-1, 1]; a setpoint of another kind is refused with the
+reason (never executed as something else). Changing the mode makes the joint hold (position:
+where it is; velocity: 0 rad/s; torque, duty: zero output).
+
 Time. The physics runs at ``control_rate`` in fixed steps, advanced by the elapsed time in chunks
 (no dependence on timer precision):
 
@@ -48,7 +56,7 @@ from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from px100_control.control.pid import GAIN_FIELDS, PidGains
-from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
+from px100_control.control.simulator import ArmSimulator, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
@@ -141,6 +149,14 @@ class SimDriverNode(Node):
         for joint in self._gain_joints:
             self.declare_parameter(f'torque_enable.{joint}', True, ParameterDescriptor(
                 description=f'torque of {joint} on (false: the servo coasts)'))
+            mode = self.declare_parameter(f'operating_mode.{joint}', '', ParameterDescriptor(
+                description="'' (default), 'position', 'velocity', 'torque' [N*m] or 'duty' "
+                            '[-1, 1]: what commands/joint_setpoints carries for this joint'))
+            if mode.value:
+                error = self._mode_error(mode.name, mode.value)
+                if error:
+                    raise Px100Error(error)
+                self._set_mode(joint, mode.value)
         for note in self.sim.dynamics.notes:
             self.get_logger().info(f'dynamics: {note}')
         self._lock = threading.Lock()
@@ -277,8 +293,27 @@ class SimDriverNode(Node):
             return 'this robot has no gripper to hold an object'
         return None
 
+    def _mode_error(self, name: str, value) -> Optional[str]:
+        from px100_control.control.simulator import MODES
+        if value not in ('',) + tuple(MODES):
+            return (f"{name} must be '' (default) or one of {', '.join(MODES)}, not {value!r} "
+                    '(Interbotix modes map to these: current -> torque, pwm -> duty)')
+        return None
+
+    def _set_mode(self, joint: str, mode: str) -> None:
+        """Put a joint in a control mode ('' = its default); the joint then holds."""
+        self.sim.set_mode(joint, mode or 'position')
+        if not mode:
+            self.sim.modes.pop(joint, None)  # the default (the gripper: position or effort)
+        self.get_logger().info(f"{joint}: {mode or 'default'} mode")
+
     def _validate_parameters(self, params: List[Parameter]) -> SetParametersResult:
         changed = {prm.name: prm.value for prm in params}
+        for name, value in changed.items():
+            if name.startswith('operating_mode.'):
+                error = self._mode_error(name, value)
+                if error:
+                    return SetParametersResult(successful=False, reason=error)
         if any(name.startswith('gains.') for name in changed):
             for joint in self._gain_joints:
                 keys = [f'gains.{joint}.{f}' for f in GAIN_FIELDS]
@@ -328,6 +363,12 @@ class SimDriverNode(Node):
                     self.get_logger().info(f'gains of {joint}: {self.sim.gains(joint)}')
             torque = {n[len('torque_enable.'):]: bool(v) for n, v in changed.items()
                       if n.startswith('torque_enable.')}
+            modes = {n[len('operating_mode.'):]: str(v) for n, v in changed.items()
+                     if n.startswith('operating_mode.')}
+            if modes:
+                self._catch_up()
+                for joint, mode in modes.items():
+                    self._set_mode(joint, mode)
             if torque:
                 self._catch_up()
                 for joint, on in torque.items():
@@ -674,8 +715,7 @@ class SimDriverNode(Node):
 
     def _on_setpoints(self, msg: JointState) -> None:
         try:
-            cmd = parse_setpoints(msg.name, msg.position, msg.velocity, msg.effort,
-                                  self.sim.command_joints, self.sim.gripper_name)
+            cmd = self.sim.parse(msg.name, msg.position, msg.velocity, msg.effort)
             self.sim.check(cmd)
             with self._lock:
                 self._catch_up()
