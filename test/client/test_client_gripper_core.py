@@ -105,7 +105,7 @@ def test_registers_and_operating_modes(bot):
     core.robot_set_motor_registers('single', 'waist', 'Goal_Current', 77)
     assert core.robot_get_motor_registers('single', 'waist', 'Goal_Current') == [77]
     assert core.robot_get_motor_registers('single', 'elbow', 'Goal_Current') == [0]
-    core.robot_set_operating_modes('group', 'arm', 'velocity')
+    assert core.robot_set_operating_modes('group', 'arm', 'linear_position') is False
     assert core.robot_get_robot_info('group', 'arm').mode == 'position'
     core.robot_set_operating_modes('group', 'arm', 'position', 'time', 1500, 250)
     assert core.robot_get_motor_registers('group', 'arm', 'Profile_Velocity') == [1500] * 4
