@@ -212,6 +212,8 @@ class RecorderNode(Node):
         self._subs: Dict[str, object] = {}
         #: contract topics subscribed ahead of their publishers: topic -> (type, latched)
         self._ahead: Dict[str, tuple] = {}
+        #: subscribed-ahead topics already matched with a publisher (and logged as recorded)
+        self._matched: set = set()
         self.ready = threading.Event()
         self.ready_timeout = float(ready_timeout)
         self.ready_topic = ns + READY_TOPIC
@@ -292,6 +294,7 @@ class RecorderNode(Node):
             self._ahead[topic] = (type_name, latched)
             self._subs[topic] = self.create_subscription(
                 cls, topic, self._make_callback(topic), qos, raw=True)
+            self.get_logger().debug(f'{topic} [{type_name}]: subscribed ahead')
 
     def _add_channel(self, topic: str) -> None:
         """Add a subscribed-ahead topic to the bag (at its first message: publishers' QoS)."""
@@ -304,7 +307,6 @@ class RecorderNode(Node):
         type_hash = getattr(pubs[0], 'topic_type_hash', '') if pubs else ''
         self.bag.add_topic(topic, type_name, offered,
                            type_description_hash=str(type_hash) if type_hash else None)
-        self.get_logger().info(f'recording {topic} [{type_name}]')
 
     def _revise_ahead(self, topic: str, type_name: str, pubs) -> None:
         """Re-subscribe a subscribed-ahead topic whose publishers its QoS or type cannot match."""
@@ -328,6 +330,16 @@ class RecorderNode(Node):
         self.get_logger().info(f'{topic}: re-subscribed to match its publishers '
                                f'[{type_name}, {qos.reliability.name.lower()}, '
                                f'{qos.durability.name.lower()}]')
+
+    def _note_matches(self) -> None:
+        """Log 'recording <topic>' once a subscribed-ahead topic is matched with a publisher."""
+        for topic, (type_name, latched) in list(self._ahead.items()):
+            sub = self._subs.get(topic)
+            if topic in self._matched or sub is None or sub.get_publisher_count() == 0:
+                continue
+            self._matched.add(topic)
+            self.get_logger().info(f'recording {topic} [{type_name}] (reliable, '
+                                   f"{'transient_local' if latched else 'volatile'})")
 
     def _unmatched(self) -> List[str]:
         """Return the selected topics whose publishers are not all matched yet."""
@@ -569,6 +581,7 @@ class RecorderNode(Node):
         if self._closing:
             return
         self.bag.flush_if_due()
+        self._note_matches()
         self._check_ready()
         now = time.monotonic()
         if (self.write_description and not self._description_seen
@@ -638,8 +651,8 @@ class RecorderNode(Node):
 
     @property
     def topics_recorded(self) -> List[str]:
-        """Return the topics that have a channel in the bag."""
-        return sorted(self.bag.topics)
+        """Return the topics in the bag or subscribed and matched with a publisher."""
+        return sorted(set(self.bag.topics) | self._matched)
 
     def destroy_node(self):
         """Close the bag, then destroy the node."""
@@ -675,8 +688,13 @@ class Recorder:
         self._thread: Optional[threading.Thread] = None
         self.metadata_path = ''
 
-    def start(self) -> 'Recorder':
-        """Create the node and start recording (ready a moment later: wait_ready); return self."""
+    def start(self, wait: bool = True) -> 'Recorder':
+        """
+        Create the node and start recording; return self.
+
+        :param wait: return only once the recorder is ready (subscribed and matched, see the
+            module docstring; at most ready_timeout + 5 s), else at once (see wait_ready)
+        """
         if self.node is not None:
             return self
         if self._given_context is None:
@@ -698,6 +716,8 @@ class Recorder:
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='px100_recorder', daemon=True)
         self._thread.start()
+        if wait:
+            self.wait_ready(self.node.ready_timeout + 5.0)
         return self
 
     def _spin(self) -> None:
@@ -742,9 +762,7 @@ class Recorder:
 
     def __enter__(self):
         """Start recording; return once the recorder is ready (at most ready_timeout + 5 s)."""
-        self.start()
-        self.wait_ready(self.node.ready_timeout + 5.0)
-        return self
+        return self.start(wait=True)
 
     def __exit__(self, *exc):
         """Stop recording and close the bag."""
