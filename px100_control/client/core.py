@@ -466,8 +466,13 @@ class InterbotixRobotXSCore:
 
     def duplicates(self) -> str:
         """Return a sentence naming a second driver / trajectory_server here ('' if none)."""
-        from px100_control.ros.peers import duplicates_message, live_peers
-        return duplicates_message(live_peers(self.robot_node, self.ns or '/'), self.ns)
+        from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
+        end = time.monotonic() + 1.0
+        peers = live_peers(self.robot_node, self.ns or '/')
+        while has_unknown(peers) and time.monotonic() < end:
+            time.sleep(0.05)  # a node being discovered: wait for its name
+            peers = live_peers(self.robot_node, self.ns or '/')
+        return duplicates_message(peers, self.ns)
 
     def _check_duplicates(self) -> None:
         """Refuse to run beside the nodes this call started twice; warn otherwise."""

@@ -17,8 +17,19 @@ from typing import Dict, List
 PASSIVE_NODES = ('recorder', 'replayer')
 
 
+#: what the graph reports for an endpoint whose node is not discovered yet
+UNKNOWN = '_NODE_NAME_UNKNOWN_'
+
+
 def _full(info) -> str:
+    if info.node_name == UNKNOWN:
+        return '(a node not identified yet)'
     return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+
+
+def has_unknown(peers: Dict[str, List[str]]) -> bool:
+    """Return True when some endpoint's node is not identified yet (ask again shortly)."""
+    return any(n.startswith('(') for names in peers.values() for n in names)
 
 
 def _is_passive(name: str) -> bool:

@@ -230,20 +230,23 @@ class ReplayerNode(Node):
 
     def _check_live_graph(self) -> None:
         """Warn about live drivers / trajectory servers; withhold commands from them."""
-        from px100_control.ros.peers import live_peers
+        from px100_control.ros.peers import has_unknown, live_peers
         commands = self._command_topics()
         if not commands or self.send_commands:
             return
         namespaces = sorted(set(commands.values()))
         deadline = time.monotonic() + LIVE_CHECK_S
-        live = {}
-        while not live and time.monotonic() < deadline and not self._stop.is_set():
+        live, unknown = {}, False
+        while (not live or unknown) and time.monotonic() < deadline and \
+                not self._stop.is_set():
+            live, unknown = {}, False
             for ns in namespaces:
                 peers = live_peers(self, ns)
                 names = peers['drivers'] + peers['trajectory_servers']
+                unknown = unknown or has_unknown(peers)
                 if names:
                     live[ns] = sorted(set(names))
-            if not live:
+            if not live or unknown:
                 time.sleep(0.05)
         for topic, ns in commands.items():
             if ns in live:

@@ -56,7 +56,7 @@ from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from px100_control.control.pid import GAIN_FIELDS, PidGains
-from px100_control.control.simulator import ArmSimulator, SimConfig
+from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
@@ -692,9 +692,11 @@ class SimDriverNode(Node):
 
     def _check_peers(self) -> None:
         """Log (once per change) and report on /diagnostics a second driver in the namespace."""
-        from px100_control.ros.peers import duplicates_message, live_peers
+        from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
         ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
         peers = live_peers(self, ns)
+        if has_unknown(peers):
+            return  # a node being discovered: named on the next check
         message = duplicates_message({'drivers': peers['drivers']}, ns)
         if message and message != self._duplicates:
             self.get_logger().error(message)
@@ -715,7 +717,10 @@ class SimDriverNode(Node):
 
     def _on_setpoints(self, msg: JointState) -> None:
         try:
-            cmd = self.sim.parse(msg.name, msg.position, msg.velocity, msg.effort)
+            # without modes set, the position-only parser (and its messages) as before
+            cmd = parse_setpoints(msg.name, msg.position, msg.velocity, msg.effort,
+                                  self.sim.command_joints, self.sim.gripper_name,
+                                  dict(self.sim.modes) or None)
             self.sim.check(cmd)
             with self._lock:
                 self._catch_up()

@@ -558,9 +558,11 @@ class TrajectoryServerNode(Node):
 
     def _check_peers(self) -> None:
         """Log (once per change) a second trajectory server in the namespace, by name."""
-        from px100_control.ros.peers import duplicates_message, live_peers
+        from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
         ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
         peers = live_peers(self, ns)
+        if has_unknown(peers):
+            return  # a node being discovered: named on the next check
         message = duplicates_message({'trajectory_servers': peers['trajectory_servers']}, ns)
         if message and message != self._duplicates:
             self.get_logger().error(message)

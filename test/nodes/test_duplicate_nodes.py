@@ -86,7 +86,10 @@ def test_replay_into_a_live_graph_withholds_commands(node_process, tmp_path, sen
                             f'robot_name:={ns}')
     assert listener.wait_for_output('ready', 30.0), listener.output()
     time.sleep(2.0)
-    args = ['--send-commands'] if send else []
+    # --send-commands: the goal needs recorder + trajectory_server, the setpoint recorder +
+    # sim_driver as subscribers before it goes out
+    args = ['--send-commands', '--wait-for-subscribers', '20', '--min-subscribers', '2'] \
+        if send else []
     replay = node_process('replay', bag, *args, '--ros-args', '-p', f'robot_name:={ns}')
     assert replay.proc.wait(30.0) == 0, replay.output()
     out = replay.output()
