@@ -214,6 +214,8 @@ class RecorderNode(Node):
         self._ahead: Dict[str, tuple] = {}
         #: subscribed-ahead topics already matched with a publisher (and logged as recorded)
         self._matched: set = set()
+        #: the QoS of each subscribed-ahead topic's subscription
+        self._ahead_qos: Dict[str, QoSProfile] = {}
         self.ready = threading.Event()
         self.ready_timeout = float(ready_timeout)
         self.ready_topic = ns + READY_TOPIC
@@ -291,9 +293,15 @@ class RecorderNode(Node):
                 reliability=ReliabilityPolicy.RELIABLE,
                 durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
                             else DurabilityPolicy.VOLATILE))
+            try:
+                sub = self.create_subscription(cls, topic, self._make_callback(topic), qos,
+                                               raw=True)
+            except Exception as exc:  # e.g. this participant has the topic with another type
+                self.get_logger().debug(f'{topic}: not subscribed ahead ({exc})')
+                continue
             self._ahead[topic] = (type_name, latched)
-            self._subs[topic] = self.create_subscription(
-                cls, topic, self._make_callback(topic), qos, raw=True)
+            self._ahead_qos[topic] = qos
+            self._subs[topic] = sub
             self.get_logger().debug(f'{topic} [{type_name}]: subscribed ahead')
 
     def _add_channel(self, topic: str) -> None:
@@ -311,10 +319,14 @@ class RecorderNode(Node):
     def _revise_ahead(self, topic: str, type_name: str, pubs) -> None:
         """Re-subscribe a subscribed-ahead topic whose publishers its QoS or type cannot match."""
         ahead_type, latched = self._ahead[topic]
+        type_name = getattr(pubs[0], 'topic_type', '') or type_name
+        mine = self._ahead_qos[topic]
         reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in pubs)
         durable = all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
                       for p in pubs)
-        if type_name == ahead_type and reliable and (durable or not latched):
+        fits = (reliable or mine.reliability == ReliabilityPolicy.BEST_EFFORT) and \
+            (durable or mine.durability == DurabilityPolicy.VOLATILE)
+        if type_name == ahead_type and fits:
             return
         if topic in self.bag.topics and type_name != ahead_type:
             self._skip(topic, f"published as '{type_name}', already recorded as '{ahead_type}'")
@@ -325,6 +337,7 @@ class RecorderNode(Node):
         self.destroy_subscription(self._subs.pop(topic))
         self._ahead[topic] = (type_name, latched and durable)
         qos = subscription_qos([p.qos_profile for p in pubs])
+        self._ahead_qos[topic] = qos
         self._subs[topic] = self.create_subscription(
             cls, topic, self._make_callback(topic), qos, raw=True)
         self.get_logger().info(f'{topic}: re-subscribed to match its publishers '
@@ -338,8 +351,10 @@ class RecorderNode(Node):
             if topic in self._matched or sub is None or sub.get_publisher_count() == 0:
                 continue
             self._matched.add(topic)
-            self.get_logger().info(f'recording {topic} [{type_name}] (reliable, '
-                                   f"{'transient_local' if latched else 'volatile'})")
+            qos = self._ahead_qos[topic]
+            self.get_logger().info(f'recording {topic} [{type_name}] '
+                                   f'({qos.reliability.name.lower()}, '
+                                   f'{qos.durability.name.lower()})')
 
     def _unmatched(self) -> List[str]:
         """Return the selected topics whose publishers are not all matched yet."""
