@@ -94,4 +94,5 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
     assert 0.3 < final < 1.3, samples[-5:]
     moving = [t for t, q in samples if abs(q - final) > 0.003]
     t_rest = (max(moving) - t_sig) if moving else 0.0
+    print(f'at rest {t_rest:.3f} s after SIGINT at waist {final:.3f} rad; {lines[0]}')
     assert t_rest < 0.2, f'arm still moving {t_rest:.3f} s after SIGINT'
