@@ -34,6 +34,7 @@ setup(
         ('share/' + PACKAGE + '/config', _data('config/*.yaml')),
         ('share/' + PACKAGE + '/config/robots', _data('config/robots/*')),
         ('share/' + PACKAGE + '/config/scenes', _data('config/scenes/*')),
+        ('share/' + PACKAGE + '/examples', _data('examples/*')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

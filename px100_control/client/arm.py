@@ -34,6 +34,10 @@ Where Interbotix is broken, this does better (documented deviations):
   waypoints as one trajectory; ``wp_moving_time`` / ``wp_accel_time`` (servo profile per waypoint
   in Interbotix) are accepted and unused; ``moving_time`` < ``wp_period`` returns False instead
   of raising NameError.
+
+px100_control extensions (no Interbotix equivalent): ``wait_for_last_goal``,
+``last_goal_status``, ``last_error``, and ``set_ee_waypoints`` (straight end-effector lines
+through waypoints with a maximum joint step between points).
 """
 import math
 from typing import Any, List, Optional, Sequence, Tuple
@@ -42,6 +46,8 @@ import numpy as np
 
 from px100_control.client.core import InterbotixRobotXSCore
 from px100_control.client.robot import InterbotixException
+from px100_control.errors import InvalidInputError
+from px100_control.kinematics.cartesian import CartesianPathError, plan_ee_waypoints
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import inv_transform, pose_error
 
@@ -620,6 +626,62 @@ class InterbotixArmXSInterface:
         else:
             self._capture_after_failure()
         self.set_trajectory_time(mt, self.accel_time)
+        return ok
+
+    def set_ee_waypoints(self, poses: Sequence[np.ndarray], max_joint_step: float = 0.05,
+                         wp_period: float = 0.05, blocking: bool = True) -> bool:
+        """
+        Move the end effector on straight lines through waypoints, no joint step above a max.
+
+        px100_control extension (no Interbotix equivalent). ``poses`` are (4, 4) end-effector
+        poses [m] in the base frame; between them the position moves on a straight line and the
+        orientation by roll, pitch, yaw (yaw relative to the azimuth atan2(y, x) on arms with
+        fewer than 6 joints, whose heading follows the position). ik_service solves every
+        point; the count per
+        segment is the smallest that keeps every joint step between points under
+        ``max_joint_step`` [rad] (``kinematics.cartesian``). Points are ``wp_period`` [s] apart,
+        stretched (with a warning) when a step would exceed a joint velocity limit.
+        :return: True if the whole path was planned and (when blocking) executed; False with
+            the reason logged (bad input, a pose without IK solution, a singular line)
+        """
+        period = _finite(wp_period)
+        if period is None or period <= 0:
+            self._warn(f'Waypoints refused: wp_period must be finite and > 0, got {wp_period!r}.')
+            return False
+        n = len(self.joint_names)
+
+        def solve(targets, _q_start):
+            path = self.core.request_ik_path(targets)
+            Q = [self._wrap_theta_list(self._path_point(path, i))
+                 for i in range(len(path.points))]
+            return np.array(Q, dtype=float).reshape(-1, n), self.core.last_path_reason
+
+        q0 = np.array(self.joint_commands, dtype=float)
+        try:
+            plan = plan_ee_waypoints(
+                solve, q0, self.model.fk(q0), poses, max_joint_step,
+                orientation='azimuth' if self.group_info.num_joints < 6 else 'rpy')
+        except InvalidInputError as exc:
+            self._warn(f'Waypoints refused: {exc}.')
+            return False
+        except (CartesianPathError, InterbotixException) as exc:
+            self._error(f'Waypoint path will not be executed: {exc}')
+            return False
+        steps = np.abs(np.diff(plan.q, axis=0))
+        need = float(np.max(steps / np.asarray(self.group_info.joint_velocity_limits)))
+        if need > period:
+            self._warn(f'Waypoint steps of {plan.max_step:.3f} rad every {period:.3f} s exceed '
+                       f'a joint velocity limit: points are {1.02 * need:.3f} s apart instead.')
+            period = 1.02 * need
+        points = [[float(v) for v in q] for q in plan.q[1:]]
+        times = [(i + 1) * period for i in range(len(points))]
+        ok = self._execute(self.joint_names, points, times, None, blocking,
+                           len(points) * period)
+        if ok:
+            self.T_sb = np.array(plan.poses[-1], dtype=float)
+            self.joint_commands = points[-1]
+        else:
+            self._capture_after_failure()
         return ok
 
     def _path_point(self, path, i: int) -> np.ndarray:

@@ -14,7 +14,7 @@ Profiles of a point-to-point move (``PROFILES``):
   (Ta = T/2 is a triangle, Ta = 0 a velocity step). Peak speed ``|dq| / (T - Ta)``.
 - ``minimum_jerk``: the quintic 10 tau^3 - 15 tau^4 + 6 tau^5 (zero boundary velocity and
   acceleration). Peak speed ``1.875 |dq| / T``.
-- ``linear_max_step``: linear in time (seed 001): the path is cut into
+- ``linear_max_step``: linear in time: the path is cut into
   N = ceil(max |dq| / max_joint_step) equal steps and lasts at least N sample periods, so no
   joint moves more than ``max_joint_step`` between two setpoints sampled at that period.
   Peak speed ``|dq| / T`` (velocity steps at the ends).
@@ -22,7 +22,7 @@ Profiles of a point-to-point move (``PROFILES``):
 Several waypoints are joined by Hermite splines with continuous velocity: cubic, or quintic
 when accelerations are given; interior velocities, when not given, are the shape-preserving
 PCHIP slopes (zero at a local extremum, so the path never overshoots a waypoint). The
-``linear_max_step`` profile joins waypoints linearly instead (as seed 001 does).
+``linear_max_step`` profile joins waypoints linearly instead.
 """
 from dataclasses import dataclass
 import math
@@ -131,7 +131,7 @@ def peak_speed_factor(profile: str, T: float, accel_time: float = 0.0) -> float:
 
 def linear_steps(q0, q1, max_joint_step: float) -> np.ndarray:
     """
-    Return the (N + 1, n) linear interpolation of seed 001: no joint step above max_joint_step.
+    Return the (N + 1, n) linear interpolation with no joint step above max_joint_step.
 
     N = ceil(max |q1 - q0| / max_joint_step), at least 1.
 

@@ -3,12 +3,12 @@ Iterative IK for any serial chain (PoE model): damped least squares and Newton-R
 
 A ``Task`` ('full' pose, 'axis' = position + tool x axis direction, or 'position'; see
 ``solve.make_task``) gives an error e(q) and Jacobian J(q) in the base frame, rows
-[orientation (rad); position (m)]. Damped least squares (seed 000 eq. 3)::
+[orientation (rad); position (m)]. Damped least squares with a null-space task::
 
     q+ = q + alpha J# e + beta (I - J# J) g(q),   J# = J^T (J J^T + lambda^2 I)^-1
 
 with the secondary task g toward q_nominal ('nominal') or away from the joint limits ('limits').
-Newton-Raphson (seed 003): dq = pinv(J) e, step norm limited to 0.5 rad, then projected onto the
+Newton-Raphson: dq = pinv(J) e, step norm limited to 0.5 rad, then projected onto the
 joint limits. Both return an ``IkResult``.
 
 The single-configuration loops run on plain Python floats (small chains: a numpy call costs
@@ -518,7 +518,7 @@ def _matvec(rows, x) -> Vec:
 # ---------------------------------------------------------------------------------------------
 
 def _secondary(kind: Optional[str], q: Vec, q_nominal: Vec, lo: Vec, hi: Vec) -> Optional[Vec]:
-    """Return the secondary-task joint velocity g(q) (seed 000 eq. 3)."""
+    """Return the secondary-task joint velocity g(q) of the null-space term."""
     if kind == 'nominal':
         return [a - b for a, b in zip(q_nominal, q)]
     if kind == 'limits':
@@ -606,7 +606,7 @@ def solve_dls(model, task: Task, q0, *, q_nominal=None, secondary: Optional[str]
               tol_secondary: float = 1e-8, max_iterations: int = 200,
               check_limits: bool = True, stall_iterations: int = 30) -> IkResult:
     """
-    Damped least squares from q0, with an optional null-space secondary task (seed 000 eq. 3).
+    Damped least squares from q0, with an optional null-space secondary task.
 
     :param task: what to reach (``Task``)
     :param secondary: None, 'nominal' (toward q_nominal, default model.home) or 'limits'
@@ -683,10 +683,10 @@ def solve_newton(model, task: Task, q0, *, max_step: float = 0.5, alpha: float =
                  tol_position: float = 1e-9, tol_orientation: float = 1e-9,
                  max_iterations: int = 200, check_limits: bool = True) -> IkResult:
     """
-    Newton-Raphson IK (seed 003): pinv step, step-norm limit, joint-limit projection.
+    Newton-Raphson IK: pinv step, step-norm limit, joint-limit projection.
 
     For a 'full' task the error is the space twist log(T_target T^-1) with the space Jacobian
-    (exactly seed 003); other tasks use ``Task.residual_py``. Generic over any model.
+    (as ``newton_raphson_twist``); other tasks use ``Task.residual_py``. Generic over any model.
     """
     c = chain(model)
     q = np.array(q0, dtype=float)
@@ -735,14 +735,16 @@ def _inv(T: np.ndarray) -> np.ndarray:
     return Ti
 
 
-def newton_raphson_seed003(model, T_target, q0, max_iters: int = 50, tol: float = 1e-4,
-                           alpha: float = 1.0):
+def newton_raphson_twist(model, T_target, q0, max_iters: int = 50, tol: float = 1e-4,
+                         alpha: float = 1.0, max_step: float = 0.5):
     """
-    Return (q, info) exactly as seed 003's ``inverse_kinematics_space_basic``.
+    Newton-Raphson on the space twist, with its error history: return (q, info).
 
-    info = {'converged': bool, 'iter': k, 'err': [||Xi|| per iteration]}; convergence when the
-    space twist norm ||log(T_target T^-1)|| < tol. Steps longer than 0.5 are scaled to 0.5 and
-    then projected onto the joint limits.
+    Each iteration: Xi = log(T_target T(q)^-1) (space twist, [rad; m]), dq = pinv(J_s) Xi with
+    the space Jacobian J_s, steps longer than ``max_step`` [rad] scaled down to it, q + dq
+    projected onto the joint limits, q += alpha dq. Converged when ||Xi|| < tol (checked
+    before each step, so 'iter' is the number of steps taken).
+    info = {'converged': bool, 'iter': k, 'err': [||Xi|| per iteration]}.
     """
     c = chain(model)
     q = np.array(q0, dtype=float)
@@ -759,8 +761,8 @@ def newton_raphson_seed003(model, T_target, q0, max_iters: int = 50, tol: float 
         Js[3:] -= np.cross(J[:3].T, T[:3, 3]).T
         dq = np.linalg.pinv(Js) @ Xi
         norm = np.linalg.norm(dq)
-        if norm > 0.5:
-            dq = dq * (0.5 / norm)
+        if norm > max_step:
+            dq = dq * (max_step / norm)
         dq = np.clip(q + dq, c.lower, c.upper) - q
         q = q + alpha * dq
     return q, {'converged': False, 'iter': max_iters, 'err': history}

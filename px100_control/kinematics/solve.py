@@ -15,12 +15,13 @@ Targets are (4, 4) poses of the end effector in ``model.base_frame`` [m]. Modes:
   ``details['roll_flipped']`` and the roll it drops (about pi). 6+ joints, and arms that are
   not a waist + planar chain (:func:`pitch_applies`): same as 'full'.
 - 'position': orientation free; the free angles are chosen by the null-space task toward
-  ``q_nominal`` (seed 000 eq. 3; default ``model.home``).
+  ``q_nominal`` (null-space secondary task; default ``model.home``).
 
 Methods: 'analytic' (the model's ``ik.analytic`` plug-in, see ``kinematics.analytic``), 'dls'
-(damped least squares), 'newton' (seed 003 Newton-Raphson), 'auto' (analytic if the model has
-one, falling back to DLS when it finds nothing valid and is not known to be complete).
-Solutions are ordered by Euclidean distance to ``q_seed`` (seed 000 cost function; default
+(damped least squares), 'newton' (Newton-Raphson, step limiting, limit projection), 'auto'
+(analytic if the model has one, falling back to DLS when it finds nothing valid and is not
+known to be complete).
+Solutions are ordered by Euclidean distance to ``q_seed`` (the closest-to-nominal cost; default
 ``model.home``). No robot specifics here.
 """
 import functools
@@ -162,7 +163,7 @@ def pitch_applies(model) -> bool:
     That is: revolute joints 1-4 (or 1-3 on a 3-joint arm), joints 2-4 with axes parallel to
     each other and perpendicular to the first (a waist, then a planar shoulder/elbow/wrist
     chain), so the reachable tool orientations are Rz(waist) Ry(pitch) (and a roll on 5-joint
-    arms). Other arms (seed 002's RRRP, seed 004's RRRR) solve 'pitch' requests as 'full'.
+    arms). Other arms (the RRRP, the RRRR) solve 'pitch' requests as 'full'.
     """
     k = min(4, model.dof)
     if k < 3 or any(t == 'prismatic' for t in model.joint_types[:k]):

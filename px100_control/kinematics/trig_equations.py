@@ -22,7 +22,7 @@ Every solver returns the list of ALL real solutions (possibly empty; a double ro
 angles wrapped to (-pi, pi]. ``tol`` is the relative tolerance under which a slightly negative
 discriminant (rounding at the workspace boundary) counts as zero. Degenerate coefficient sets
 whose unknown drops out (e.g. X = Y = 0 in type 2) return [] rather than a continuum: the
-caller must pick another equation (as seed 002 does with its |cos q3| vs |sin q3| rule).
+caller must pick another equation (as the RRRP inverse model does: |cos q3| vs |sin q3|).
 """
 import math
 from typing import List, Tuple

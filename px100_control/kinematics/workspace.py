@@ -2,7 +2,7 @@
 Workspace of an arm: reachability queries and a PNG rendering.
 
 ``is_reachable`` uses the analytic module's ``reach_margin`` when the model has one (px100: the
-seed 000 torus bounds, joint limits ignored) and otherwise asks ``solve_ik``.
+torus bounds of the px100 family, joint limits ignored) and otherwise asks ``solve_ik``.
 ``render_workspace_png`` samples random in-limit configurations (joint limits included) and
 draws the side (radial r vs z) and top (x vs y) views, with the torus bounds for px100-family
 arms. Units: m, rad.
@@ -65,7 +65,7 @@ def render_workspace_png(model, path: str, samples: int = 20000, seed: int = 0) 
     Render the reachable workspace of ``model`` to a PNG at ``path`` and return the path.
 
     Side view (radial distance from the first joint axis vs height) and top view of sampled
-    reachable positions; px100-family arms also get the seed 000 torus bounds at pitch 0.
+    reachable positions; px100-family arms also get the torus bounds at pitch 0.
     """
     import matplotlib
     matplotlib.use('Agg')
@@ -86,7 +86,7 @@ def render_workspace_png(model, path: str, samples: int = 20000, seed: int = 0) 
             lo, hi = abs(g.Lr - g.L3), g.Lr + g.L3
             t = np.linspace(0.0, 2.0 * math.pi, 400)
             for radius, style in ((hi, '-'), (lo, '--')):
-                # wrist-centre annulus at pitch 0, shifted by the tool length (seed 000 V.5)
+                # wrist-centre annulus at pitch 0, shifted by the tool length
                 ax1.plot(g.u2 + g.L4 + radius * np.cos(t), -(g.v2 + radius * np.sin(t)),
                          style, color='tab:red', lw=1.0,
                          label=f'torus bound at pitch 0 ({radius:.3f} m)')

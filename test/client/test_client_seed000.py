@@ -1,5 +1,7 @@
 """
-Seed 000's two main() scripts run against the client with only the import lines changed.
+Seed 000's two main() scripts (examples/seed000_main_*.py) run against the client.
+
+Only their import lines differ from the document.
 
 They are ROS 1 style: no robot_startup(), ``gripper.open()/close()``, default moving_time 2 s,
 and they work in the seed's millimetres through its own DH model (L1 = 89.54, L4 = 109 mm), then
@@ -11,16 +13,29 @@ L4 = 113.575 mm), which is asserted honestly below as "within 8 mm of the seed's
 within 1 mm of the URDF forward kinematics of the command".
 """
 import contextlib
+import functools
 import io
+import os
 
 from client_support import wait_until
 import numpy as np
 from px100_control.client import arm as arm_module
-from px100_control.client import robot_shutdown
-from px100_control.kinematics import seed_px100_dh as seed
+from px100_control.client import InterbotixManipulatorXS, robot_shutdown
 import pytest
 
 pytestmark = pytest.mark.ros
+
+EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__)))), 'examples')
+
+
+@pytest.fixture
+def seed(monkeypatch):
+    """Return the seed's own model module (examples/seed000_model.py), importable by name."""
+    monkeypatch.syspath_prepend(EXAMPLES)
+    import seed000_model
+    return seed000_model
+
 
 SCRIPT1_TARGETS = [[100, 200, 3], [100, -200, 3], [0, 0, 250], [20, 100, 20], [180, 200, 80],
                    [180, -200, 80]]
@@ -29,7 +44,7 @@ SCRIPT2_TARGETS = [[100, 250, 100], [90, -100, 10], [20, 0, 250], [150, 50, 10],
 
 
 @pytest.fixture
-def spy(monkeypatch):
+def spy(monkeypatch, seed):
     """Record every set_joint_positions call: command, result, measured joints and ee_pose."""
     calls = []
     original = arm_module.InterbotixArmXSInterface.set_joint_positions
@@ -63,23 +78,36 @@ def _check(calls, targets_mm):
         assert seed_err_mm < 8.0, f'{target} mm: ended {seed_err_mm:.1f} mm away'
 
 
-def test_seed000_joint_space_main(spy):
+def _empty_world(monkeypatch, module):
+    """
+    Give the script's robot no scene (sim_driver parameter scene = '').
+
+    The document's targets at z = 3 and -30 mm are on or below the default scene's table,
+    which its simulation (an empty RViz world) did not have.
+    """
+    monkeypatch.setattr(module, 'InterbotixManipulatorXS', functools.partial(
+        InterbotixManipulatorXS, node_kwargs={'parameters': {'scene': ''}}))
+
+
+def test_seed000_joint_space_main(spy, monkeypatch):
     """Section V.6 main(): convert_param_op_to_qdh targets, open/close, sleep at the end."""
-    import seed000_joint_space
+    import seed000_main_joint_space
+    _empty_world(monkeypatch, seed000_main_joint_space)
     with contextlib.redirect_stdout(io.StringIO()):
-        seed000_joint_space.main()
+        seed000_main_joint_space.main()
     _check(spy, SCRIPT1_TARGETS)
 
 
-def test_seed000_iterative_main(spy):
+def test_seed000_iterative_main(spy, monkeypatch):
     """Section V.8 main(): iterative_algorithm targets (null-space toward q_nom)."""
-    import seed000_iterative
+    import seed000_main_iterative
+    _empty_world(monkeypatch, seed000_main_iterative)
     with contextlib.redirect_stdout(io.StringIO()):
-        seed000_iterative.main()
+        seed000_main_iterative.main()
     _check(spy, SCRIPT2_TARGETS)
 
 
-def test_seed_targets_are_within_the_px100_limits():
+def test_seed_targets_are_within_the_px100_limits(seed):
     """Every seed 000 target maps to in-limit actuator angles (so both scripts can succeed)."""
     from px100_control.models.registry import load_robot
     model = load_robot('px100')

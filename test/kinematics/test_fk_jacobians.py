@@ -3,7 +3,6 @@ import numpy as np
 from px100_control.kinematics.iterative import chain, fk_and_jacobian, fk_batch
 from px100_control.kinematics.poe import jacobian_geometric
 from px100_control.kinematics.se3 import log_se3
-from px100_control.kinematics.seed_px100_dh import SeedPx100
 from px100_control.models.registry import load_robot
 import pytest
 
@@ -62,25 +61,6 @@ def test_geometric_jacobian_moves_the_end_effector(px100, configs):
             dq[i] = h
             dp = (px100.fk(q + dq)[:3, 3] - px100.fk(q - dq)[:3, 3]) / (2 * h)
             np.testing.assert_allclose(Jg[:3, i], dp, atol=1e-9)
-
-
-def test_seed000_position_jacobian_cross_check(px100, configs):
-    """Seed 000's analytic 3x4 Jacobian (real px100 lengths, q_dh = q + q_nom) = J_v of PoE."""
-    seed = SeedPx100.real()
-    for q in configs:
-        q_dh = seed.q_actuator_to_q_dh(q)
-        np.testing.assert_allclose(seed.jacobienne(q_dh),
-                                   jacobian_geometric(px100.S_list, px100.M, q)[:3], atol=1e-12)
-        np.testing.assert_allclose(seed.position(q_dh), px100.fk(q)[:3, 3], atol=1e-12)
-
-
-def test_seed000_matrix_is_urdf_frame_turned_about_x(px100, configs):
-    """Seed 000's end-effector frame is the URDF's rotated by -pi/2 about x (tool Rx(pi/2))."""
-    seed = SeedPx100.real()
-    Rx = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])   # Rx(-pi/2)
-    for q in configs:
-        T_seed = seed.matrice_t_h(seed.q_actuator_to_q_dh(q))
-        np.testing.assert_allclose(T_seed[:3, :3], px100.fk(q)[:3, :3] @ Rx, atol=1e-12)
 
 
 def test_fast_kernels_agree_with_reference(px100, configs):

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 from px100_control.kinematics.analytic import px100 as ana
-from px100_control.kinematics.iterative import (chain, fk_and_jacobian, newton_raphson_seed003,
+from px100_control.kinematics.iterative import (chain, fk_and_jacobian, newton_raphson_twist,
                                                 solve_dls, solve_newton, Task)
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.kinematics.se3 import transform
@@ -133,7 +133,7 @@ def test_seed003_newton_raphson_on_7dof(myarm):
     ok = 0
     for q0 in myarm.random_configurations(20, rng, margin=0.2):
         T = myarm.fk(q0)
-        q, info = newton_raphson_seed003(myarm, T, q0 + rng.normal(0.0, 0.2, 7))
+        q, info = newton_raphson_twist(myarm, T, q0 + rng.normal(0.0, 0.2, 7))
         assert len(info['err']) >= 1
         if info['converged']:
             ok += 1

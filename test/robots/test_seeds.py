@@ -12,7 +12,7 @@ import math
 import numpy as np
 from px100_control.kinematics.analytic import myarm300pi, rrrp, rrrr
 from px100_control.kinematics.dh import DHRow, fk_dh
-from px100_control.kinematics.iterative import newton_raphson_seed003
+from px100_control.kinematics.iterative import newton_raphson_twist
 from px100_control.kinematics.se3 import pose_error, rot_x, rot_y, transform
 from px100_control.models.registry import load_robot
 import pytest
@@ -66,15 +66,15 @@ def test_seed003_newton_raphson_reproduced():
     the null-space drift depends on the exact path).
     """
     m = load_robot('myarm300pi')
-    q_grasp, info = newton_raphson_seed003(m, T_GRASP, np.radians(THETA_INIT_DEG))
+    q_grasp, info = newton_raphson_twist(m, T_GRASP, np.radians(THETA_INIT_DEG))
     assert info['converged'] and info['iter'] == 8
     assert np.linalg.norm(m.fk(q_grasp)[:3, 3] - T_GRASP[:3, 3]) < 1e-8   # seed: 5.91e-9 m
     assert np.abs(np.degrees(q_grasp) - GRASP_TABLE_DEG).max() <= 0.011
-    q_place, info = newton_raphson_seed003(m, T_PLACE, q_grasp)
+    q_place, info = newton_raphson_twist(m, T_PLACE, q_grasp)
     assert info['converged'] and info['iter'] == 6
     assert np.linalg.norm(m.fk(q_place)[:3, 3] - T_PLACE[:3, 3]) < 1e-5   # seed: 0.00000 m
     assert np.abs(np.degrees(q_place) - PLACE_TABLE_DEG).max() <= 0.03
-    _, info = newton_raphson_seed003(m, T_PLACE, np.radians(THETA_INIT_DEG))
+    _, info = newton_raphson_twist(m, T_PLACE, np.radians(THETA_INIT_DEG))
     assert not info['converged']
 
 
@@ -151,7 +151,7 @@ def _params():
 
 
 def _seed004_xyz(P, q):
-    return rrrr.seed_fk_position(P, q)
+    return rrrr.fk_position(P, q)
 
 
 def test_seed004_equations_hold_for_the_model():

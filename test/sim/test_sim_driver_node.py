@@ -173,8 +173,12 @@ def test_bad_messages_are_refused_while_publishing_continues(spin_node, rclpy_co
 
 
 def test_torque_off_makes_the_arm_fall_and_reset_recovers(spin_node, rclpy_context):
-    """torque_enable(false): the arm falls under gravity; reset: back at the sleep pose."""
-    driver, probe = start(spin_node, rclpy_context)
+    """
+    torque_enable(false): the arm falls under gravity; reset: back at the sleep pose.
+
+    No scene (the default one's table would catch the falling arm before its joint limit).
+    """
+    driver, probe = start(spin_node, rclpy_context, scene='')
     probe.send(ARM, [0.0, 0.0, 0.0, 0.0])
     probe.wait(lambda: np.abs(probe.js[-1][1].position[:4]).max() < 2e-3, timeout=30,
                what='home pose')

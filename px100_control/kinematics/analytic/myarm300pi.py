@@ -1,5 +1,5 @@
 """
-Analytic IK of the 7-DOF myArm 300 Pi (seed 003), parameterised by the elbow swivel angle.
+Analytic IK of the 7-DOF Elephant myArm 300 Pi, parameterised by the elbow swivel angle.
 
 Structure (read from ``S_list``/``M`` and checked against the model's FK): axes at q = 0 are
 z, y, z, x, z, x, z; joints 1-3 meet at the shoulder S = (0, 0, d1), joint 4 (the elbow) crosses

@@ -5,9 +5,9 @@ pitch joints (shoulder, elbow, wrist_angle) whose axes are perpendicular to the 
 
 The geometry (link lengths, angular offsets, axis signs) is derived from the model's ``S_list``
 and ``M``, so any arm of this family works (px100, mobile_px100, a DH-built px100, ...).
-Seed 000 section III: the waist takes the target azimuth ``a`` or ``a + pi``; the planar
-shoulder/elbow pair has two elbow signs; the wrist closes the pitch. Seed 001 solves the same
-arm from a full 4x4 pose (waist from the orientation).
+Inverse geometric model: the waist takes the target azimuth ``a`` or ``a + pi``; the planar
+shoulder/elbow pair has two elbow signs; the wrist closes the pitch. From a full 4x4 pose
+(mode 'full') the waist comes from the orientation instead.
 
 Pitch convention: the 'sxyz' pitch of the end-effector with yaw forced to the target azimuth
 (Interbotix ``set_ee_pose_components``), i.e. the angle of the tool x axis below the horizontal,
@@ -312,7 +312,7 @@ def ik_xyz_pitch(model, x: float, y: float, z: float, pitch: float,
     Return the in-limit solutions for (x, y, z [m], pitch [rad]), closest to q_seed first.
 
     The fast scalar path (plain floats, no numpy): the front branches (waist toward the target,
-    tool roll 0 as Interbotix means it) before the back ones, each ordered by the seed 000 cost
+    tool roll 0 as Interbotix means it) before the back ones, each ordered by the cost
     function (Euclidean distance to q_seed, default model.home). Input must be finite.
     Without ``check_limits`` every closed-form solution is returned (``solve_xyz_pitch``).
     """
@@ -367,7 +367,7 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     """
     Return every closed-form candidate (k, 4) for a (4, 4) target, before limit filtering.
 
-    'full': waist from the tool orientation (seed 001), two elbow signs; 'pitch': position and
+    'full': waist from the tool orientation, two elbow signs; 'pitch': position and
     tool x axis (waist a and a + pi, two elbows); 'position': both waists and elbows over a grid
     of pitches (solve_ik refines them with the null-space task toward q_nominal).
     """
@@ -470,8 +470,9 @@ def position_solutions(model, T_target: np.ndarray, q_nominal, check_limits: boo
     Return (k, 4) position-only solutions, the free pitch chosen by the secondary task.
 
     For each branch (waist a / a + pi, elbow sign) the pitch minimises |q(pitch) - q_nominal|
-    over the in-limit part of the branch (the fixed points of seed 000 eq. 3; a minimum on a
-    joint limit is kept on the limit): grid search, then golden-section refinement to ``tol``.
+    over the in-limit part of the branch (the fixed points of the null-space iteration
+    q+ = q + alpha J# e + beta (I - J# J)(q_nom - q); a minimum on a joint limit is kept on
+    the limit): grid search, then golden-section refinement to ``tol``.
     Without ``check_limits`` the limits are ignored.
     """
     g = geometry(model)
@@ -524,7 +525,7 @@ def reach_margin(model, p, pitch: Optional[float] = None) -> float:
     Return the signed reach margin [m] of a position (and optional pitch), joint limits ignored.
 
     Positive inside the workspace; negative: how far outside. With a pitch, the wrist centre must
-    lie in the annulus |Lr - L3| <= d <= Lr + L3 around the shoulder (seed 000 torus bounds);
+    lie in the annulus |Lr - L3| <= d <= Lr + L3 around the shoulder (the workspace torus);
     without, the end effector must lie within [.., Lr + L3 + L4] of the shoulder. The best of the
     front and back waist branches counts.
     """

@@ -1,8 +1,8 @@
 """
-Closed-form inverse geometric model of the RRRP robot of seed 002, built the way the seed does it.
+Closed-form inverse geometric model of an RRRP robot (modified DH): type 3 and 5 equations.
 
 Modified DH (alpha, a, theta, r): 1: (0, 0, q1, r1); 2: (0, a2, q2 + pi/2, 0);
-3: (pi/2, 0, q3, r3); 4: (pi/2, 0, 0, q4) prismatic; tool Tz(r4). The direct model (seed 002):
+3: (pi/2, 0, q3, r3); 4: (pi/2, 0, 0, q4) prismatic; tool Tz(r4). The direct model:
 
     0M4 = [[-s12 c3, c12, -s3 s12, a2 c1 - q4 s3 s12 + r3 c12],
            [ c3 c12, s12,  s3 c12, a2 s1 + q4 s3 c12 + r3 s12],
@@ -17,11 +17,11 @@ Inverse ('full' pose), with fMw = fMe Tz(r4)^-1 = [x y z t]:
   a2 c1 = t_x + q4 s3 s12 - r3 c12, a2 s1 = t_y - q4 s3 c12 - r3 s12;
 - else (q1, q4) from the type 5 pair a2 s1 = (t_y - r3 s12) - c12 s3 q4,
   a2 c1 = (t_x - r3 c12) + s12 s3 q4 (two roots: t_z is not used, so one root is spurious
-  unless cos q3 = 0; the FK check of ``solve_ik`` drops it, as the seed's addCandidate does);
+  unless cos q3 = 0; the FK check of ``solve_ik`` drops it, the usual add-candidate step);
 - q2 = q12 - q1.
 
 Every candidate is returned; ``solve_ik`` verifies each by FK and filters the limits.
-Other modes (not in the seed, same building blocks): 'pitch' (``solve_ik``'s 4-DOF semantics:
+Other modes (same building blocks): 'pitch' (``solve_ik``'s 4-DOF semantics:
 position + the tool x axis = (-s12 c3, c3 c12, s3)): q3 and q12 from that axis (two signs of
 c3), then as above; 'position': q4 on a grid over its travel, cos q3 = (r1 - z) / (q4 + r4),
 then (q1, q12) from a type 8 pair, as starting points for ``solve_ik``'s null-space refinement.
@@ -47,7 +47,7 @@ _HALF_PI = math.pi / 2.0
 
 @dataclass(frozen=True)
 class RrrpParameters:
-    """Seed 002 dimensions [m]."""
+    """RRRP dimensions r1, a2, r3, r4 [m]."""
 
     r1: float
     a2: float
@@ -56,7 +56,7 @@ class RrrpParameters:
 
 
 def _dgm(P: RrrpParameters, q) -> np.ndarray:
-    """Return fMe from the seed's direct geometric model (for the structure check)."""
+    """Return fMe from the direct geometric model (for the structure check)."""
     q1, q2, q3, q4 = q
     s12, c12 = math.sin(q1 + q2), math.cos(q1 + q2)
     s3, c3 = math.sin(q3), math.cos(q3)
@@ -73,7 +73,7 @@ def parameters(model) -> RrrpParameters:
     """
     Return (r1, a2, r3, r4) of an RRRP-family model, read from its MDH table.
 
-    The model's FK is checked against the seed's direct model at a few configurations.
+    The model's FK is checked against the direct model at a few configurations.
     :raises RobotModelError: the model is not this robot family
     """
     kin = (model.extra or {}).get('kinematics') or {}
@@ -88,8 +88,7 @@ def parameters(model) -> RrrpParameters:
     rng = np.random.default_rng(2)
     for q in rng.uniform(model.lower, model.upper, size=(4, 4)):
         if np.abs(_dgm(P, q) - model.fk(q)).max() > 1e-9:
-            raise RobotModelError(f"'{model.name}' does not match the RRRP direct model of "
-                                  'seed 002')
+            raise RobotModelError(f"'{model.name}' does not match the RRRP direct model")
     if abs(P.a2) < 1e-12:
         raise RobotModelError(f"'{model.name}': a2 = 0, the rrrp solver needs a2 != 0")
     return P

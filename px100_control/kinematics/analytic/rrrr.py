@@ -1,17 +1,18 @@
 """
-Closed-form IK of the 4-DOF RRRR arm of seed 004 (standard DH, wrist offset d4).
+Closed-form IK of a 4-DOF RRRR arm in standard DH with a wrist offset d4 (registry 'rrrr').
 
-Forward model (seed 004 section 2; C23 = cos(q2 + q3), S23 = sin(q2 + q3)):
+Forward model (C23 = cos(q2 + q3), S23 = sin(q2 + q3)):
 
     X = C1 (a2 C2 + a3 C23 + d4 S23), Y = S1 (...), Z = d1 + a2 S2 + a3 S23 - d4 C23
 
-It holds for the standard DH table with twists +90 deg on joints 1 and 3 (the seed's own table,
-twists -90/+90, does not produce it: see config/robots/rrrr.yaml and test_rrrr.py).
-Position IK (seed 004 section 3): q1 = atan2(Y, X); with Px = sqrt(X^2 + Y^2), Pz = Z - d1,
+It holds for the standard DH table with twists +90 deg on joints 1 and 3 (a table with twists
+-90/+90 deg, as it is sometimes printed, does not produce it: see config/robots/rrrr.yaml).
+Position IK: q1 = atan2(Y, X); with Px = sqrt(X^2 + Y^2), Pz = Z - d1,
 D = Px^2 + Pz^2 - a2^2 - a3^2 - d4^2, Rk = sqrt(a3^2 + d4^2), gamma = atan2(d4, a3):
 q3 = gamma +- acos(D / (2 a2 Rk)) (elbow up / down); with A = a3 c3 + d4 s3, B = a3 s3 - d4 c3:
 q2 = atan2(-B Px + (a2 + A) Pz, (a2 + A) Px + B Pz). This module also returns the branch the
-seed leaves out, q1 + pi with Px -> -Px (reaching over the top): up to 4 arm solutions.
+elbow-up/elbow-down pair leaves out, q1 + pi with Px -> -Px (reaching over the top): up to
+4 arm solutions.
 
 The joint q4 rotates about the approach axis z4 = z3 and does not move the end-effector origin,
 so the position alone fixes q1..q3 and the approach direction; only the roll q4 is left:
@@ -41,7 +42,7 @@ _REACH_EPS = 1e-12
 
 @dataclass(frozen=True)
 class RrrrParameters:
-    """Seed 004 dimensions [m]."""
+    """RRRR dimensions d1, a2, a3, d4 [m]."""
 
     d1: float
     a2: float
@@ -49,8 +50,8 @@ class RrrrParameters:
     d4: float
 
 
-def seed_fk_position(P: RrrrParameters, q) -> np.ndarray:
-    """Return (X, Y, Z) [m] from the seed 004 forward-kinematics equations."""
+def fk_position(P: RrrrParameters, q) -> np.ndarray:
+    """Return (X, Y, Z) [m] from the closed-form forward-kinematics equations."""
     q1, q2, q3 = q[0], q[1], q[2]
     c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
     r = P.a2 * math.cos(q2) + P.a3 * c23 + P.d4 * s23
@@ -63,7 +64,7 @@ def parameters(model) -> RrrrParameters:
     """
     Return (d1, a2, a3, d4) of an RRRR-family model, read from its standard DH table.
 
-    The model's FK is checked against the seed's equations at a few configurations.
+    The model's FK is checked against these equations at a few configurations.
     :raises RobotModelError: the model is not this robot family
     """
     kin = (model.extra or {}).get('kinematics') or {}
@@ -75,8 +76,9 @@ def parameters(model) -> RrrrParameters:
                        a3=float(joints[2].get('a', 0.0)), d4=float(joints[3].get('d', 0.0)))
     rng = np.random.default_rng(4)
     for q in rng.uniform(model.lower, model.upper, size=(4, 4)):
-        if np.abs(seed_fk_position(P, q) - model.fk(q)[:3, 3]).max() > 1e-9:
-            raise RobotModelError(f"'{model.name}' does not follow the seed 004 FK equations")
+        if np.abs(fk_position(P, q) - model.fk(q)[:3, 3]).max() > 1e-9:
+            raise RobotModelError(f"'{model.name}' does not follow the FK equations of an "
+                                  'RRRR arm (standard DH, wrist offset d4)')
     if abs(P.a2) < 1e-12 or math.hypot(P.a3, P.d4) < 1e-12:
         raise RobotModelError(f"'{model.name}': degenerate link lengths")
     return P
@@ -199,4 +201,4 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
 
 __all__ = ['candidates', 'unreachable_reason', 'parameters', 'arm_solutions',
            'position_solutions',
-           'seed_fk_position', 'RrrrParameters', 'complete']
+           'fk_position', 'RrrrParameters', 'complete']

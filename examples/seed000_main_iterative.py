@@ -4,11 +4,12 @@ Seed 000, section V.8: the pick-and-place main() with the iterative (null-space)
 
 The body of ``main()`` is the seed's, unchanged. Only the import lines differ: Interbotix's
 ``InterbotixManipulatorXS`` comes from px100_control.client, and the seed's own functions and
-``q_nom`` (defined in the seed's own file) from px100_control.kinematics.seed_px100_dh. Targets
-are the seed's millimetres.
+``q_nom`` (defined in the seed's own file) from seed000_model.py beside this file. Targets
+are the seed's millimetres. Run it through seed000_px100.py (which starts the simulated robot
+in-process first).
 """
 from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup  # noqa: F401
-from px100_control.kinematics.seed_px100_dh import iterative_algorithm, q_dh_to_q_actuator, q_nom
+from seed000_model import iterative_algorithm, q_dh_to_q_actuator, q_nom
 import numpy as np
 
 

@@ -141,7 +141,8 @@ class SeedPx100:
 
         Stops when |q_k - q_k+1| < tolerance. Returns q (DH) if the final position and pitch
         are geometrically reachable (seed's D >= 0 test) else None; with ``return_info`` a
-        tuple (q or None, {'iterations', 'position', 'psi', 'converged'}).
+        tuple (q or None, {'iterations', 'position', 'psi', 'converged', 'history'}), history
+        the (k + 1, 4) DH joint values from q_initial to the last iterate.
         """
         x_but = np.asarray(x_but, dtype=float)[:3]
         qk0 = np.asarray(q_initial, dtype=float)
@@ -151,6 +152,7 @@ class SeedPx100:
                     f'The Jacobian does not have the correct shape, current shape: {J.shape}')
         eye = np.eye(len(qk0))
         qk1 = qk0
+        history = [qk0]
         iterations, converged = max_iterations, False
         for i in range(max_iterations):
             J_inverse = np.linalg.pinv(J)
@@ -158,6 +160,7 @@ class SeedPx100:
             term2 = beta * (eye - J_inverse @ J) @ (
                 (np.asarray(qnom, float) - qk0) if qnom is not None else np.zeros_like(qk0))
             qk1 = qk0 + term1 + term2
+            history.append(qk1)
             if np.linalg.norm(qk0 - qk1) < tolerance:
                 self._print(f'Stop criterion reached after {i + 1} iterations.')
                 iterations, converged = i + 1, True
@@ -174,7 +177,8 @@ class SeedPx100:
         W = U ** 2 + V ** 2 + Lr ** 2 - L3 ** 2
         D = A ** 2 + B ** 2 - W ** 2
         pos = self.position(qk1)
-        info = {'iterations': iterations, 'position': pos, 'psi': phi, 'converged': converged}
+        info = {'iterations': iterations, 'position': pos, 'psi': phi, 'converged': converged,
+                'history': np.array(history)}
         if D >= 0:
             self._print(f'The best coordination is: {qk1} \t for the next position {x_but}\n'
                         f'Which corresponds in real parameters to: {np.append(pos, phi)}')

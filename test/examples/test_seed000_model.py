@@ -1,5 +1,5 @@
 """
-Seed 000's printed numbers, reproduced with its own model.
+Seed 000's printed numbers, reproduced with its own model (examples/seed000_model.py).
 
 The seed works in mm: L1 = 89.54, Lm = 35, L2 = L3 = 100, L4 = 109. Its model with the real
 lengths is also cross-checked against the URDF px100.
@@ -7,11 +7,12 @@ lengths is also cross-checked against the URDF px100.
 import math
 
 import numpy as np
-from px100_control.kinematics import seed_px100_dh as seed
 from px100_control.kinematics.analytic import px100 as ana
-from px100_control.kinematics.seed_px100_dh import SeedPx100
+from px100_control.kinematics.poe import jacobian_geometric
 from px100_control.models.registry import load_robot
 import pytest
+import seed000_model as seed
+from seed000_model import SeedPx100
 
 
 def test_q_nom_and_offsets():
@@ -112,3 +113,26 @@ def test_seed_model_with_real_lengths_is_the_urdf_px100():
                 continue        # back branch: the seed keeps psi, we keep the tool direction
             qa = np.remainder(m.q_dh_to_q_actuator(s) + math.pi, 2 * math.pi) - math.pi
             assert any(np.abs(np.array(o) - qa).max() < 1e-9 for o in ours)
+
+
+def test_seed000_position_jacobian_cross_check():
+    """Seed 000's analytic 3x4 Jacobian (real px100 lengths, q_dh = q + q_nom) = J_v of PoE."""
+    seed = SeedPx100.real()
+    px100 = load_robot('px100')
+    configs = px100.random_configurations(50, rng=7)
+    for q in configs:
+        q_dh = seed.q_actuator_to_q_dh(q)
+        np.testing.assert_allclose(seed.jacobienne(q_dh),
+                                   jacobian_geometric(px100.S_list, px100.M, q)[:3], atol=1e-12)
+        np.testing.assert_allclose(seed.position(q_dh), px100.fk(q)[:3, 3], atol=1e-12)
+
+
+def test_seed000_matrix_is_urdf_frame_turned_about_x():
+    """Seed 000's end-effector frame is the URDF's rotated by -pi/2 about x (tool Rx(pi/2))."""
+    seed = SeedPx100.real()
+    px100 = load_robot('px100')
+    configs = px100.random_configurations(50, rng=7)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])   # Rx(-pi/2)
+    for q in configs:
+        T_seed = seed.matrice_t_h(seed.q_actuator_to_q_dh(q))
+        np.testing.assert_allclose(T_seed[:3, :3], px100.fk(q)[:3, :3] @ Rx, atol=1e-12)

@@ -4,11 +4,12 @@ Seed 000, section V.6: the pick-and-place main() in joint space (convert_param_o
 
 The body of ``main()`` is the seed's, unchanged. Only the import lines differ: Interbotix's
 ``InterbotixManipulatorXS`` comes from px100_control.client, and the seed's own functions (which
-the seed defines in the same file) from px100_control.kinematics.seed_px100_dh. Values are the
-seed's millimetres: its functions work in mm and return DH joint angles [rad].
+the seed defines in the same file) from seed000_model.py beside this file. Values are the
+seed's millimetres: its functions work in mm and return DH joint angles [rad]. Run it through
+seed000_px100.py (which starts the simulated robot in-process first).
 """
 from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup  # noqa: F401
-from px100_control.kinematics.seed_px100_dh import convert_param_op_to_qdh, q_dh_to_q_actuator
+from seed000_model import convert_param_op_to_qdh, q_dh_to_q_actuator
 import numpy as np
 
 

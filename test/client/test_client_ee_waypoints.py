@@ -1,0 +1,70 @@
+"""bot.arm.set_ee_waypoints: straight end-effector lines through waypoints, bounded joint steps."""
+import math
+
+from client_support import EeSampler, wait_until
+import numpy as np
+from px100_control.kinematics.se3 import rot_y, rot_z, transform
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def _pose(x, y, z, pitch):
+    return transform(rot_z(math.atan2(y, x)) @ rot_y(pitch), [x, y, z])
+
+
+def _off_polyline(P, corners):
+    """Return the largest distance [m] of the points P (k, 3) from the polyline."""
+    best = np.full(len(P), np.inf)
+    for a, b in zip(corners[:-1], corners[1:]):
+        ab = b - a
+        s = np.clip(((P - a) @ ab) / max(ab @ ab, 1e-18), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(P - (a + s[:, None] * ab), axis=1))
+    return float(best.max())
+
+
+def _settled_error(bot, target, tol=1e-3) -> float:
+    """Return |measured ee - target| [m] once below tol, or after 0.5 simulated seconds."""
+    err = [np.inf]
+
+    def close():
+        err[0] = float(np.linalg.norm(bot.core.measured_ee_pose()[:3, 3] - target))
+        return err[0] < tol
+    wait_until(close, 0.5)
+    return err[0]
+
+
+def test_waypoints_are_followed_on_straight_lines(bot):
+    """The measured end effector stays near the straight segments and ends on the last pose."""
+    _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, pitch=0.3, moving_time=1.2)
+    assert ok
+    start = bot.arm.get_ee_pose_command()[:3, 3].copy()
+    poses = [_pose(0.20, 0.08, 0.10, 0.6), _pose(0.16, -0.08, 0.08, 0.9),
+             _pose(0.22, 0.0, 0.16, 0.2)]
+    with EeSampler(bot) as sampler:
+        assert bot.arm.set_ee_waypoints(poses, max_joint_step=0.04, wp_period=0.04) is True
+    assert _settled_error(bot, poses[-1][:3, 3]) < 1e-3
+    corners = np.vstack([start] + [T[:3, 3] for T in poses])
+    P = sampler.array()
+    assert len(P) > 30
+    off = _off_polyline(P, corners)
+    assert off < 4e-3, f'the end effector left the segments by {off * 1000:.1f} mm'
+    np.testing.assert_allclose(bot.arm.get_ee_pose_command(), poses[-1], atol=1e-9)
+    assert bot.arm.model.fk(bot.arm.get_joint_commands())[:3, 3] == pytest.approx(
+        poses[-1][:3, 3], abs=1e-5)
+
+
+def test_waypoint_refusals_leave_the_arm_still(bot):
+    """Bad input, an unreachable waypoint, a bad period: False with a reason, no move."""
+    _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, moving_time=1.2)
+    assert ok
+    cmds = bot.arm.get_joint_commands()
+    assert bot.arm.set_ee_waypoints([], max_joint_step=0.05) is False
+    assert bot.arm.set_ee_waypoints([np.eye(3)]) is False
+    assert bot.arm.set_ee_waypoints([_pose(0.2, 0.0, 0.1, 0.3)], max_joint_step=0.0) is False
+    assert bot.arm.set_ee_waypoints([_pose(0.2, 0.0, 0.1, 0.3)], wp_period=float('nan')) is False
+    assert bot.arm.set_ee_waypoints([_pose(0.2, 0.0, 0.1, 0.3), _pose(0.7, 0.0, 0.1, 0.0)]) \
+        is False
+    assert 'waypoint 1' in bot.arm.last_error
+    assert bot.arm.get_joint_commands() == cmds
+    np.testing.assert_allclose(bot.arm.get_joint_positions(), cmds, atol=0.005)
