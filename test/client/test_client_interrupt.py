@@ -89,10 +89,14 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
         assert os.path.isfile(os.path.join(bag, 'metadata.yaml'))
     else:
         assert 'no bag recorded' in lines[0], lines[0]
-    # at rest within 0.2 s of the signal and short of the goal (1.5 rad)
+    # at rest within 0.2 s of the signal (speed below 0.05 rad/s from then on; the settling
+    # afterwards stays within 0.01 rad) and short of the goal (1.5 rad)
     final = samples[-1][1]
     assert 0.3 < final < 1.3, samples[-5:]
-    moving = [t for t, q in samples if abs(q - final) > 0.003]
-    t_rest = (max(moving) - t_sig) if moving else 0.0
-    print(f'at rest {t_rest:.3f} s after SIGINT at waist {final:.3f} rad; {lines[0]}')
+    fast = [t1 for (t0, q0), (t1, q1) in zip(samples, samples[1:])
+            if t1 - t0 > 1e-3 and abs(q1 - q0) / (t1 - t0) > 0.05]
+    t_rest = (max(fast) - t_sig) if fast else 0.0
+    late = [q for t, q in samples if t >= t_sig + 0.2]
     assert t_rest < 0.2, f'arm still moving {t_rest:.3f} s after SIGINT'
+    assert max(late) - min(late) < 0.01, (min(late), max(late))
+    print(f'at rest {t_rest:.3f} s after SIGINT at waist {final:.3f} rad; {lines[0]}')
