@@ -279,6 +279,7 @@ class InterbotixRobotXSCore:
         from px100_control.client.inprocess import InProcessBringup, ProcessBringup
         if _robot.get_bringup(self.robot_name) is not None:
             return  # a second client of the same robot (e.g. a standalone gripper) shares it
+        self._refuse_beside_running_nodes()
         cls = ProcessBringup if str(mode).lower() == 'process' else InProcessBringup
         bringup = cls(self.robot_model, self.robot_name,
                       real_time_factor=self.real_time_factor, **node_kwargs)
@@ -463,6 +464,29 @@ class InterbotixRobotXSCore:
             '(or PX100_BRINGUP=1) to run them in this process.')
         self.get_node().logerror(message)
         raise InterbotixException(message)
+
+    def _refuse_beside_running_nodes(self, discovery: float = 1.0) -> None:
+        """
+        Raise before starting nodes where a driver or trajectory_server already runs.
+
+        The graph is watched for ``discovery`` [s] (other processes' nodes take a moment to
+        be discovered by a new node; found ones end the wait at once).
+        """
+        from px100_control.ros.peers import has_unknown, live_peers
+        end = time.monotonic() + discovery
+        while True:
+            peers = live_peers(self.robot_node, self.ns or '/')
+            names = peers['drivers'] + peers['trajectory_servers']
+            if (names and not has_unknown(peers)) or time.monotonic() >= end:
+                break
+            time.sleep(0.05)
+        if names:
+            message = (f"nodes already run under '{self.ns or '/'}' ({', '.join(names)}): this "
+                       'script does not start its own beside them (bringup=True would put two '
+                       'drivers on the same joints); connect to those instead (bringup=False, '
+                       'PX100_BRINGUP unset) or stop them.')
+            self.get_node().logerror(message)
+            raise InterbotixException(message)
 
     def duplicates(self) -> str:
         """Return a sentence naming a second driver / trajectory_server here ('' if none)."""

@@ -49,7 +49,7 @@ def test_in_process_bringup_beside_a_running_one_is_refused(node_process):
             InterbotixManipulatorXS('px100', robot_name=ns, bringup=True, connect_timeout=30.0)
     finally:
         robot_shutdown()
-    assert f'/{ns}/sim_driver' in str(err.value) and '/sim_driver' in str(err.value)
+    assert '/sim_driver' in str(err.value) and '/trajectory_server' in str(err.value)
     assert 'connect to those instead' in str(err.value)
 
 
