@@ -57,6 +57,10 @@ class InProcessBringup:
         kwargs = dict(self.kwargs)
         if context is not None:
             kwargs.setdefault('context', context)
+        if self.robot_name:
+            # nodes in the robot's namespace: several robots per process (or graph) do not
+            # share the node names (and parameter services) /sim_driver, ...
+            kwargs.setdefault('namespace', '/' + self.robot_name.strip('/'))
         if self.real_time_factor == 1.0:
             kwargs.setdefault('parameter_overrides', _overrides(params))
             self.nodes = list(bringup.create_nodes(**kwargs))
@@ -159,6 +163,8 @@ class ProcessBringup:
                 params.update({'real_time_factor': self.real_time_factor}
                               if name == 'sim_driver' else {'use_sim_time': True})
             args = [sys.executable, '-m', module, '--ros-args']
+            if self.robot_name:
+                args += ['-r', f"__ns:=/{self.robot_name.strip('/')}"]
             for key, value in params.items():
                 args += ['-p', f'{key}:={_ros_arg(value)}']
             log = tempfile.NamedTemporaryFile(prefix=f'px100_{name}_', suffix='.log',
