@@ -109,10 +109,11 @@ class ViewerScene:
         self.kin: Optional[UrdfKinematics] = None
         self._bodies: Dict = {}
         self._handles: Dict = {}
+        self._redraw = False
         self._last_user_input = -1e9
         self._dragging = False
-        self.server.initial_camera.position = (0.30, -0.34, 0.26)
-        self.server.initial_camera.look_at = (0.10, 0.0, 0.08)
+        self.server.initial_camera.position = (0.26, -0.30, 0.22)
+        self.server.initial_camera.look_at = (0.12, 0.0, 0.08)
         self.server.scene.add_grid('/grid', width=1.0, height=1.0, cell_size=0.05,
                                    section_size=0.25)
         self.status = self.server.gui.add_markdown('state t = 0.000000 s', order=0)
@@ -140,10 +141,16 @@ class ViewerScene:
                 self.buttons[action] = b
             self.orientation_box = gui.add_checkbox(
                 'Gizmo orientation', False,
-                hint='send the gizmo orientation to IK (off: position only, orientation free)')
+                hint='rotate the gizmo and send its orientation to IK (off: position only, '
+                     'orientation free)')
         self.gizmo = self.server.scene.add_transform_controls(
-            '/ee_target_gizmo', scale=0.08, line_width=3.0, depth_test=False)
+            '/ee_target_gizmo', scale=0.1, line_width=3.0, depth_test=False,
+            disable_rotations=True)
         self.gizmo.on_update(self._on_gizmo)
+
+        @self.orientation_box.on_update
+        def _(event) -> None:
+            self.gizmo.disable_rotations = not self.orientation_box.value
 
     def _now(self) -> float:
         import time
@@ -169,8 +176,9 @@ class ViewerScene:
                    quat_xyzw=quat)
 
     def _on_connect(self, client) -> None:
-        with self._lock:
-            self._drawn.clear()        # everything is redrawn at the next render
+        # no lock here: viser may call this while it holds its own locks, which render()
+        # takes after self._lock
+        self._redraw = True            # everything is redrawn at the next render
 
     # -- drawing -----------------------------------------------------------------------------
     def has_clients(self) -> bool:
@@ -191,6 +199,9 @@ class ViewerScene:
         if not force and not self.has_clients():
             return False
         with self._lock:
+            if self._redraw:
+                self._redraw = False
+                self._drawn.clear()
             changed = [p for p in state.PARTS if self._drawn.get(p) != state.version[p]]
             if not changed:
                 return False
