@@ -39,7 +39,7 @@ def graph(browser, ros_context):
         watcher.publish_world()
         for url in (URL, URL_RO):
             assert wait_http(url, 90.0), f'no viewer page on {url}: ' + procs[1].output()[-2000:]
-        assert wait_for(lambda: watcher.joint('waist') is not None, 90.0), 'no joint_states'
+        assert wait_for(lambda: watcher.position('waist') is not None, 90.0), 'no joint_states'
         yield watcher, procs
     finally:
         ex.shutdown(timeout_sec=2.0)
@@ -123,8 +123,8 @@ def test_dragging_a_joint_slider_moves_the_simulated_joint(page, graph):
     page.mouse.up()
     target = float(thumb.get_attribute('aria-valuenow'))
     assert target > 0.3, f'the drag did not move the slider (value {target})'
-    assert wait_for(lambda: abs(watcher.joint('waist') - target) < 0.03, 15.0), \
-        f'waist is {watcher.joint("waist"):.3f} rad, slider {target:.3f}'
+    assert wait_for(lambda: abs(watcher.position('waist') - target) < 0.03, 15.0), \
+        f'waist is {watcher.position("waist"):.3f} rad, slider {target:.3f}'
 
 
 def _blue_arrow_tip(img: np.ndarray):
@@ -201,5 +201,5 @@ def test_closed_tab_and_dead_viewer_never_stop_the_graph(browser, graph):
     assert watcher.wait_goal(key) == 'SUCCEEDED'
     t0 = time.monotonic()
     watcher.joints = {}
-    assert wait_for(lambda: watcher.joint('waist') is not None, 5.0)
+    assert wait_for(lambda: watcher.position('waist') is not None, 5.0)
     assert time.monotonic() - t0 < 5.0

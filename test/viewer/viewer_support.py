@@ -90,8 +90,8 @@ class Watcher(Node):
                 key = (st.goal_info.stamp.sec, st.goal_info.stamp.nanosec)
                 self.status[key] = NAMES.get(st.status, str(st.status))
 
-    def joint(self, name: str):
-        """Return the last measured position of a joint (None before any joint_states)."""
+    def position(self, name: str):
+        """Return the last measured position of the named joint (None before any state)."""
         with self.lock:
             return self.joints.get(name)
 
@@ -165,7 +165,7 @@ def open_page(browser, url: str, timeout: float = 60.0):
     page.wait_for_selector('text=state t =', timeout=timeout * 1000)
     # the first joint_states reached the page: the stamp is no longer zero
     page.wait_for_function(
-        "() => /state t = [1-9]/.test(document.body.innerText)", timeout=timeout * 1000)
+        '() => /state t = [1-9]/.test(document.body.innerText)', timeout=timeout * 1000)
     page.wait_for_timeout(500)
     page.evaluate("() => document.querySelectorAll('.mantine-Notification-closeButton')"
                   '.forEach(b => b.click())')
