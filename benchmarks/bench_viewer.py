@@ -194,9 +194,9 @@ def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
         figures['latency_dom_ms'] = _latency(dom)
         figures['page_messages_hz'] = round(len(ws) / window, 1)
         figures['page_dom_updates_hz'] = round(len(dom) / window, 1)
-        log(f"latency joint_states -> browser (websocket frame, CDP event): "
+        log('latency joint_states -> browser (websocket frame, CDP event): '
             f"{figures['latency_ms']}, {figures['page_messages_hz']} Hz")
-        log(f"latency joint_states -> status text in the page's DOM: "
+        log("latency joint_states -> status text in the page's DOM: "
             f"{figures['latency_dom_ms']}, {figures['page_dom_updates_hz']} Hz")
     finally:
         viewer.stop()
@@ -211,12 +211,12 @@ def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
         '| --- | --- | --- |',
         f"| CPU, no browser | {100 * figures['cpu_no_browser']:.1f} % of a core | - |",
         f"| CPU, one browser | {100 * figures['cpu_one_browser']:.1f} % of a core | <= 20 % |",
-        f"| latency joint_states -> browser (websocket frame) p50 / p95 | {lat.get('p50')} / {lat.get('p95')} ms "
-        f"({lat.get('samples')} samples) | p50 <= 50 ms |",
+        f"| latency joint_states -> browser (websocket frame) p50 / p95 | {lat.get('p50')} / "
+        f"{lat.get('p95')} ms ({lat.get('samples')} samples) | p50 <= 50 ms |",
         f"| latency joint_states -> status text drawn in the DOM p50 / p95 | {dom.get('p50')} / "
         f"{dom.get('p95')} ms ({dom.get('samples')} samples) | |",
         f"| load average (1 min) before / after | {figures['load_average_1min']} "
-        f"on {os.cpu_count()} cores | |"])
+        f'on {os.cpu_count()} cores | |'])
     return figures
 
 

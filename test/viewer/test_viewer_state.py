@@ -3,11 +3,10 @@ import os
 import sys
 from types import SimpleNamespace as NS
 
-import pytest
-
 from px100_control.errors import BagError
 from px100_control.viewer.state import apply_markers, interpolate_joint_path, Throttle, Trail, \
     ViewerState
+import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'bag'))
