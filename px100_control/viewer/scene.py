@@ -296,13 +296,18 @@ class ViewerScene:
             handle.remove()
 
     def _lines(self, name: str, points, color, thickness: float) -> None:
-        self._remove(name)
         if len(points) < 2:
+            self._remove(name)
             return
         pts = np.asarray(points, dtype=np.float32)
         segments = np.stack([pts[:-1], pts[1:]], axis=1)
-        self._handles[name] = self.server.scene.add_line_segments(
-            name, segments, colors=color, thickness=thickness, thickness_units='screen')
+        handle = self._handles.get(name)
+        if handle is None:
+            self._handles[name] = self.server.scene.add_line_segments(
+                name, segments, colors=color, thickness=thickness, thickness_units='screen')
+        else:       # update in place: the page keeps its node instead of rebuilding it
+            handle.colors = np.tile(np.asarray(color, dtype=np.uint8), (len(segments), 2, 1))
+            handle.points = segments
 
     def _draw_trail(self, state: ViewerState, now: float) -> None:
         self._lines('/trail', list(state.trail.points), (255, 140, 0), 2.0)

@@ -61,8 +61,8 @@ def test_viewer_bag_option_plays_a_bag_with_a_time_slider(browser, node_process,
         page.mouse.up()
         assert float(thumb.get_attribute('aria-valuenow')) > 0.2
         page.wait_for_function(
-            "(b) => document.body.innerText.match(/state t = [0-9.]+/)[0] !== "
-            "b.match(/state t = [0-9.]+/)[0]", arg=before, timeout=10000)
+            '(b) => document.body.innerText.match(/state t = [0-9.]+/)[0] !== '
+            'b.match(/state t = [0-9.]+/)[0]', arg=before, timeout=10000)
     finally:
         page.close()
 
@@ -76,3 +76,21 @@ def test_viewer_bag_option_refuses_a_bag_without_robot(node_process, tmp_path):
     proc.proc.wait(60)
     assert proc.proc.returncode == 1
     assert 'robot_description' in proc.output()
+
+
+def test_other_host_is_read_only_unless_asked(rclpy_context):
+    """A host other than 127.0.0.1/localhost gives a read-only viewer unless also asked."""
+    from px100_control.ros.viewer_node import ViewerNode
+    from rclpy.parameter import Parameter
+    for remote, expected in ((False, True), (True, False)):
+        node = ViewerNode(context=rclpy_context, parameter_overrides=[
+            Parameter('host', value='127.0.0.2'), Parameter('port', value=PORT_BASE + 9),
+            Parameter('allow_remote_control', value=remote)])
+        try:
+            assert node.read_only is expected
+            assert (node.scene.gizmo is None) is expected
+        finally:
+            node.destroy_node()
+    with pytest.raises(ValueError, match='rate must be within 1..60'):
+        ViewerNode(context=rclpy_context, parameter_overrides=[
+            Parameter('rate', value=500.0), Parameter('port', value=PORT_BASE + 9)])
