@@ -34,6 +34,7 @@ setup(
         ('share/' + PACKAGE + '/urdf', _data('urdf/*')),
         ('share/' + PACKAGE + '/config', _data('config/*.yaml')),
         ('share/' + PACKAGE + '/config/robots', _data('config/robots/*')),
+        ('share/' + PACKAGE + '/config/scenes', _data('config/scenes/*')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

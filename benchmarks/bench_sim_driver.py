@@ -2,8 +2,9 @@
 sim_driver speed and timing: simulated seconds per wall second, and publish-period jitter.
 
 - ``physics``: ArmSimulator alone (all PX100 joints + gripper, 1 kHz, the arm moving between
-  poses): microseconds per step and simulated seconds per CPU second, exact dynamics
-  (``dynamics_divider`` 1) and the node default (4);
+  poses): microseconds per step and simulated seconds per CPU second with ``dynamics_divider``
+  1 and 4 (the MuJoCo plant ignores it: both time the same step; bench_physics.py compares
+  the plant with the former hand-written one);
 - ``unthrottled``: the installed ``sim_driver`` process with ``real_time_factor:=0`` (publishing
   joint_states/ee_pose at 100 Hz and /clock at 250 Hz of simulated time): simulated seconds per
   wall second read from /clock, and the process's CPU share over the window;

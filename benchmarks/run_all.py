@@ -18,8 +18,8 @@ import time
 import traceback
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ORDER = ['kinematics', 'kinematics_myarm300pi', 'robots', 'sim_driver', 'ik_service', 'recorder',
-         'client', 'robustness']
+ORDER = ['kinematics', 'kinematics_myarm300pi', 'robots', 'sim_driver', 'physics', 'ik_service',
+         'recorder', 'client', 'robustness']
 
 
 def _machine() -> str:

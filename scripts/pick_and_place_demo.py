@@ -1,22 +1,27 @@
 #!/usr/bin/env python3
 """
-Pick and place with a simulated PincherX-100 through the Interbotix-compatible client.
+Pick and place with a simulated PincherX-100 through the Interbotix-compatible client, verified.
 
-Seed 000's three objects (pick and place targets given as (x, y, z) [mm] and the gripper pitch
-psi [rad], converted to m here) are moved with seed 001's waypoint sequence:
+The objects are real bodies of the simulated scene (sim_driver parameter ``scene``, default
+``pick_place``): their poses are read from the world (``bot.world``), never hard-coded. Each is
+moved to its target with seed 001's waypoint sequence::
 
-    Home -> [Approach Pick -> Pick -> Approach Pick -> Approach Drop -> Drop -> Approach Drop]
-         x objects -> Sleep
+    Home -> [Approach Pick -> Pick -> grasp -> Approach Pick -> Approach Place -> Place ->
+             release -> Approach Place] x objects -> Sleep
 
-Approach poses are ``APPROACH_HEIGHT`` above the target with the same pitch; Approach -> Pick /
-Drop and back are straight vertical lines (``set_ee_cartesian_trajectory``). The gripper
-closes on a simulated object (sim_driver's ``object_width`` parameter) so the grasp is visible
-in the finger positions. Targets the arm cannot reach are skipped, with the reason printed.
+Approach poses are ``APPROACH_HEIGHT`` above the grasp with the same pitch (top-down when the
+arm reaches it); Approach -> Pick / Place and back are straight vertical lines
+(``set_ee_cartesian_trajectory``); the gripper closes on the object (``gripper.grasp()``) and
+holds it by friction only. Afterwards the demo reads where every object ended and prints, per
+object, its final position, its error against the target and a verdict: ``placed`` (within
+``--tolerance``, default 10 mm), ``dropped`` (lifted, but it ended elsewhere) or ``not picked``
+(it never left the table). It exits 1 when an object is not placed.
 
 By default the nodes (sim_driver, ik_service, trajectory_server) run inside this process
 (``bringup=True``); ``--connect`` uses nodes that are already running instead. The run is
-recorded to an MCAP bag (when px100_control's recorder is available) and plotted to PNG files;
-the paths are printed at the end.
+recorded to an MCAP bag and plotted (joints, end-effector path, object paths next to the arm's);
+the paths are printed at the end. ``--jitter M --seed N`` moves the objects' initial positions
+by up to M [m] (uniform in x and y, seeded) through a copy of the scene file.
 """
 import argparse
 import math
@@ -31,29 +36,35 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-#: seed 000 section V.6: per object, [pick, place] as (x [mm], y [mm], z [mm], psi [rad])
-SEED000_OBJECTS = {
-    'object1': [(100, 200, 3, math.pi / 4), (100, -200, 3, math.pi / 4)],
-    'object2': [(0, 0, 250, -math.pi / 10), (20, 100, 20, math.pi / 2)],
-    'object3': [(180, 200, 80, math.pi / 10), (180, -200, 80, math.pi / 10)],
+#: where the default scene's objects go: the resting position of each object's centre [m] in
+#: the base frame (x, y; z = the object's starting height, the table). Other scenes: --targets.
+TARGETS = {
+    'blue_cylinder': (0.10, -0.08),     # across to the other side (moved first)
+    'green_cube': (0.11, 0.0),          # nearer the base
+    'red_cube': (0.10, 0.08),           # across, over the green cube's new place
 }
-#: approach poses are this far [m] above pick / place
-APPROACH_HEIGHT = 0.04
-#: width [m] of the simulated object between the fingers
-OBJECT_WIDTH = 0.036
+#: approach poses are this far [m] above the grasp
+APPROACH_HEIGHT = 0.05
+#: the grasp point is this far [m] above the object's centre (pads on the upper half)
+GRASP_ABOVE_CENTRE = 0.0
+#: the object is released this far [m] above its resting height at the target
+RELEASE_HEIGHT = 0.003
+#: the gripper counts as closed when its finger gap changes less than this [m] in 0.1 s
+GRIPPER_STILL = 0.0002
+#: longest wait [s] for the gripper to close on an object
+GRASP_TIMEOUT = 2.5
 #: joint speed [rad/s] the demo plans long moves with (the px100 limit is pi)
-CRUISE_SPEED = 2.0
-
-
-def mm_to_m(target):
-    """Return (x, y, z) [m], pitch [rad] of a seed 000 target (x, y, z [mm], psi [rad])."""
-    x, y, z, psi = target
-    return (x / 1000.0, y / 1000.0, z / 1000.0), float(psi)
+CRUISE_SPEED = 1.5
+#: pitches tried for a grasp, top-down first [rad]
+PITCHES = [math.pi / 2 - k * 0.1 for k in range(8)]
+#: a grasp pitch must also reach this much [m] farther out and higher: the vertical lines then
+#: stay away from the stretched-arm singularity (where the elbow would have to move too fast)
+REACH_MARGIN = 0.012
 
 
 class Trace:
     """
-    The run's data for the plots: measured joints, setpoints and EE positions vs time.
+    The run's data for the plots: measured joints, setpoints, EE positions, objects vs time.
 
     With a bag, the data is read back from it after the run (no extra subscriptions in this
     process); without one, the client's node subscribes to the same topics while it runs.
@@ -61,24 +72,31 @@ class Trace:
     """
 
     def __init__(self, bot, subscribe: bool):
+        from px100_control.bag.world import PathBuilder
         self.lock = threading.Lock()
         self.t0_ns = time.time_ns()
         self.js, self.sp, self.ee = [], [], []
         self.phases = []
+        self.world = PathBuilder(self.t0_ns)
         self.arm_joints = list(bot.arm.joint_names)
         self.fingers = list(bot.core.model.gripper.fingers) if bot.core.model.gripper else []
         self.topics = {bot.core.topic(bot.core.topic_joint_states): self._on_js,
                        bot.core.topic('commands/joint_setpoints'): self._on_sp,
-                       bot.core.topic('ee_pose'): self._on_ee}
+                       bot.core.topic('ee_pose'): self._on_ee,
+                       bot.core.topic('world/markers'): self._on_markers,
+                       bot.core.topic('world/held_object'): self._on_held}
         self.subs = []
         if subscribe:
             from geometry_msgs.msg import PoseStamped
             from rclpy.qos import QoSProfile, ReliabilityPolicy
             from sensor_msgs.msg import JointState
-            qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
+            from std_msgs.msg import String
+            from visualization_msgs.msg import MarkerArray
+            qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
             node = bot.core.get_node()
+            types = {'ee_pose': PoseStamped, 'markers': MarkerArray, 'held_object': String}
             for topic, cb in self.topics.items():
-                msg_type = PoseStamped if topic.endswith('ee_pose') else JointState
+                msg_type = types.get(topic.rsplit('/', 1)[-1], JointState)
                 self.subs.append(node.create_subscription(
                     msg_type, topic, lambda m, cb=cb: cb(m, time.time_ns()), qos))
 
@@ -117,6 +135,15 @@ class Trace:
         with self.lock:
             self.ee.append([self._t(ns), p.x, p.y, p.z])
 
+    def _on_markers(self, msg, ns):
+        from px100_control.bag.world import markers_from_decoded
+        with self.lock:
+            self.world.add_markers(ns, markers_from_decoded(msg))
+
+    def _on_held(self, msg, ns):
+        with self.lock:
+            self.world.add_held(ns, msg.data)
+
     def arrays(self):
         """Return (joint states, setpoints, ee) as arrays with time in column 0."""
         with self.lock:
@@ -125,11 +152,12 @@ class Trace:
                     np.array(self.ee).reshape(-1, 4))
 
 
-def plot(trace: Trace, objects: dict, out_dir: str) -> list:
-    """Write the joint and end-effector PNG plots; return their paths."""
+def plot(trace: Trace, targets: dict, verdicts: dict, out_dir: str) -> list:
+    """Write the joint, end-effector and object-path PNG plots; return their paths."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
+    from px100_control.bag.plots import plot_object_paths
 
     js, sp, ee = trace.arrays()
     n = len(trace.arm_joints)
@@ -149,7 +177,6 @@ def plot(trace: Trace, objects: dict, out_dir: str) -> list:
     if len(js) and trace.fingers:
         ax.plot(js[:, 0], 1000 * (js[:, 1 + n] - js[:, 2 + n]), color='tab:green',
                 label='finger gap')
-        ax.axhline(1000 * OBJECT_WIDTH, color='gray', ls=':', lw=1, label='object width')
         ax.legend(loc='upper right', fontsize=8)
     ax.set_ylabel('gripper\n[mm]')
     ax.set_xlabel('time [s]')
@@ -166,37 +193,33 @@ def plot(trace: Trace, objects: dict, out_dir: str) -> list:
     plt.close(fig)
     paths.append(path)
 
+    world = trace.world.result()
     fig = plt.figure(figsize=(8, 7))
     ax = fig.add_subplot(projection='3d')
     if len(ee):
-        ax.plot(ee[:, 1], ee[:, 2], ee[:, 3], color='tab:blue', lw=1.2,
-                label='end effector (ee_pose)')
-        ax.scatter(*ee[0, 1:], color='black', marker='o', s=30, label='start')
-    for name, info in objects.items():
-        (pick, _), (place, _) = info['pick'], info['place']
-        style = {'s': 60, 'depthshade': False}
-        if info['status'] != 'done':
-            ax.scatter(*pick, color='gray', marker='x', **style)
-            ax.scatter(*place, color='gray', marker='x', **style)
-            ax.text(*pick, f" {name} ({info['status']})", fontsize=7, color='gray')
-            continue
-        ax.scatter(*pick, color='tab:green', marker='^', **style)
-        ax.scatter(*place, color='tab:red', marker='v', **style)
-        ax.text(*pick, f' {name} pick', fontsize=7)
-        ax.text(*place, f' {name} place', fontsize=7)
+        ax.plot(ee[:, 1], ee[:, 2], ee[:, 3], color='gray', lw=1.0, label='end effector')
+    for name in world.objects():
+        _, xyz = world.paths[name]
+        ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], lw=2.0,
+                label=f'{name} ({verdicts.get(name, "?")})')
+        if name in targets:
+            ax.scatter(*targets[name], marker='x', s=60, color='k')
     ax.set_xlabel('x [m]')
     ax.set_ylabel('y [m]')
     ax.set_zlabel('z [m]')
-    if len(ee):
-        span = np.ptp(ee[:, 1:], axis=0)
-        ax.set_box_aspect(np.maximum(span, 0.05 * span.max()))
-    ax.set_title('End-effector path in px100/base_link')
+    ax.set_title('End effector and objects in px100/base_link (x: targets)')
     ax.legend(loc='upper left', fontsize=8)
     fig.tight_layout()
     path = os.path.join(out_dir, 'pick_and_place_ee_path.png')
     fig.savefig(path, dpi=110)
     plt.close(fig)
     paths.append(path)
+    if world.objects():
+        ee_t, ee_xyz = (ee[:, 0], ee[:, 1:]) if len(ee) else (np.zeros(0), np.zeros((0, 3)))
+        paths.append(plot_object_paths(
+            ee_t, ee_xyz, world, os.path.join(out_dir, 'pick_and_place_objects.png'),
+            title='pick and place: object paths and end-effector path (px100/base_link)',
+            targets=targets, verdicts=verdicts))
     return paths
 
 
@@ -208,23 +231,37 @@ def start_bag(bot, out_dir: str):
                              robot_name=bot.core.robot_name), bag_dir
 
 
-class Demo:
-    """The pick-and-place run (seed 000 objects, seed 001 waypoints)."""
+def jittered_scene(scene: str, jitter: float, seed: int, out_dir: str) -> str:
+    """
+    Write a copy of a scene with its objects moved by up to ``jitter`` [m] in x and y.
 
-    def __init__(self, bot, trace: Trace, moving_time: float):
+    :return: the path of the new scene file (uniform offsets from numpy's default_rng(seed))
+    """
+    import yaml
+    from px100_control.sim.scene import scene_path
+    with open(scene_path(scene), encoding='utf-8') as f:
+        data = yaml.safe_load(f)
+    rng = np.random.default_rng(seed)
+    for obj in data.get('objects') or []:
+        dx, dy = rng.uniform(-jitter, jitter, 2)
+        x, y, z = obj['position']
+        obj['position'] = [float(x + dx), float(y + dy), float(z)]
+    data['name'] = f"{data.get('name', 'scene')}_jitter{seed}"
+    path = os.path.join(out_dir, f"{data['name']}.yaml")
+    with open(path, 'w', encoding='utf-8') as f:
+        yaml.safe_dump(data, f, sort_keys=False)
+    return path
+
+
+class Demo:
+    """The pick-and-place run over the scene's objects (seed 001 waypoints)."""
+
+    def __init__(self, bot, trace: Trace, moving_time: float, grasp_offset: float = 0.0):
         self.bot = bot
         self.trace = trace
         self.mt = moving_time
-        self.sim = bot.core.find_node('sim_driver')
+        self.grasp_offset = grasp_offset
         self.failures = []
-
-    def set_object(self, width: float) -> None:
-        """Put an object of ``width`` [m] between the fingers (0: none)."""
-        if self.sim is None:
-            return
-        problem = self.bot.core.set_remote_parameters(self.sim, {'object_width': float(width)})
-        if problem:
-            print(f'  (cannot set sim_driver object_width: {problem})')
 
     def move(self, label: str, command) -> bool:
         """
@@ -245,20 +282,29 @@ class Demo:
     def step(self, label: str, ok) -> bool:
         """Record a step's outcome."""
         ok = bool(ok[1] if isinstance(ok, tuple) else ok)
-        print(f'  {label:<15} {"ok" if ok else "FAILED"}')
         if not ok:
+            print(f'  {label:<15} FAILED: {self.bot.arm.last_error[:160]}')
             self.failures.append(label)
         return ok
 
-    def reachable(self, xyz, pitch) -> str:
-        """Return '' if the pose and its approach are reachable, else why not."""
-        for label, dz in (('target', 0.0), ('approach', APPROACH_HEIGHT)):
-            _, ok = self.bot.arm.set_ee_pose_components(
-                x=xyz[0], y=xyz[1], z=xyz[2] + dz, pitch=pitch, execute=False, moving_time=30.0)
-            if not ok:
-                return (f'{label} ({xyz[0]:.3f}, {xyz[1]:.3f}, {xyz[2] + dz:.3f}) m at pitch '
-                        f'{pitch:.3f} rad is outside the px100 workspace or joint limits')
-        return ''
+    def pitch_for(self, xyz, prefer: float = math.nan) -> float:
+        """
+        Return a pitch reaching xyz and its approach (with REACH_MARGIN); NaN if none does.
+
+        ``prefer`` first (the pick's pitch for the place: an object held a little off the
+        gripper's centre line then ends where it was picked relative to the gripper, not moved
+        by the change of pitch: measured 3 mm at 0.3 rad), then the steepest (top-down first).
+        """
+        r = float(np.hypot(xyz[0], xyz[1]))
+        out = (r + REACH_MARGIN) / r if r > 1e-6 else 1.0
+        for pitch in ([prefer] if math.isfinite(prefer) else []) + PITCHES:
+            if all(self.bot.arm.set_ee_pose_components(
+                    x=xyz[0] * k, y=xyz[1] * k, z=xyz[2] + dz, pitch=pitch, execute=False,
+                    moving_time=30.0)[1]
+                    for k, dz in ((1.0, 0.0), (1.0, APPROACH_HEIGHT), (out, 0.0),
+                                  (out, APPROACH_HEIGHT + REACH_MARGIN))):
+                return pitch
+        return math.nan
 
     def goto(self, label, xyz, pitch, dz=0.0) -> bool:
         """
@@ -274,9 +320,9 @@ class Demo:
         if not ok:
             return self.step(label, False)
         travel = float(np.max(np.abs(np.asarray(theta) - self.bot.arm.get_joint_commands())))
-        mt = max(self.mt, travel / CRUISE_SPEED + 0.3)
+        mt = max(self.mt, travel / CRUISE_SPEED + 0.4)
         return self.move(label, lambda: self.bot.arm.set_ee_pose_components(
-            **target, moving_time=mt, accel_time=0.3))
+            **target, moving_time=mt, accel_time=min(0.4, mt / 3)))
 
     def line(self, label, dz) -> bool:
         """Move straight up/down by dz [m]."""
@@ -287,49 +333,104 @@ class Demo:
             # after an aborted try, go the rest of the way from where the arm stopped
             return self.bot.arm.set_ee_cartesian_trajectory(
                 z=start + dz - self.bot.arm.get_ee_pose_command()[2, 3],
-                moving_time=max(0.5, self.mt * 0.75))
+                moving_time=max(0.8, self.mt))
         return self.move(label, line)
 
-    def move_object(self, name, pick, place) -> bool:
-        """Run the seed 001 waypoint sequence for one object."""
-        (p_xyz, p_pitch), (d_xyz, d_pitch) = pick, place
-        print(f'{name}: pick {np.round(p_xyz, 3).tolist()} m pitch {p_pitch:.3f} -> place '
-              f'{np.round(d_xyz, 3).tolist()} m pitch {d_pitch:.3f}')
+    def wait_gripper_still(self) -> None:
+        """Wait (simulated time) until the fingers stopped closing: on the object, or shut."""
+        g, core = self.bot.gripper, self.bot.core
+        last = g.get_finger_width()
+        for _ in range(int(GRASP_TIMEOUT / 0.1)):
+            core.sleep(0.1)
+            width = g.get_finger_width()
+            if abs(width - last) < GRIPPER_STILL:
+                return
+            last = width
+
+    def move_object(self, name: str, target) -> bool:
+        """Pick ``name`` where the world says it is and place it at ``target`` [m]."""
+        position = self.bot.world.get_object_pose(name)[:3, 3]
+        grasp = position + np.array([0.0, 0.0, GRASP_ABOVE_CENTRE])
+        if self.grasp_offset:
+            radial = grasp[:2] / max(1e-9, float(np.hypot(*grasp[:2])))
+            tangential = np.array([-radial[1], radial[0]])     # the fingers close along it
+            grasp[:2] += self.grasp_offset * tangential
+        place = np.array(target, dtype=float) + np.array([0.0, 0.0, GRASP_ABOVE_CENTRE
+                                                          + RELEASE_HEIGHT])
+        p_pitch = self.pitch_for(grasp)
+        d_pitch = self.pitch_for(place, prefer=p_pitch)
+        print(f'{name}: at {np.round(1000 * position, 1).tolist()} mm -> target '
+              f'{np.round(1000 * np.asarray(target), 1).tolist()} mm '
+              f'(pitch {p_pitch:.2f} / {d_pitch:.2f} rad)')
+        if math.isnan(p_pitch) or math.isnan(d_pitch):
+            where = 'its position' if math.isnan(p_pitch) else 'its target'
+            self.failures.append(f'{name}: unreachable')
+            print(f'  {name}: SKIPPED, {where} is outside the workspace at every grasp pitch')
+            return False
         g = self.bot.gripper
         self.trace.phase('open')
-        g.release(delay=0.2)
-        ok = self.goto('Approach Pick', p_xyz, p_pitch, APPROACH_HEIGHT)
-        ok = ok and self.line('Pick', -APPROACH_HEIGHT)
+        g.release(delay=0.3)
+        ok = self.goto('Approach Pick', grasp, p_pitch, APPROACH_HEIGHT) and \
+            self.line('Pick', -APPROACH_HEIGHT)
         if not ok:
             return False
-        self.set_object(OBJECT_WIDTH)
         self.trace.phase('grasp')
-        g.grasp(delay=1.5)
-        print(f'  {"grasp":<15} finger gap {1000 * g.get_finger_width():.1f} mm '
-              f'(object {1000 * OBJECT_WIDTH:.0f} mm)')
+        g.grasp(delay=0.3)
+        self.wait_gripper_still()
+        print(f'  grasp: finger gap {1000 * g.get_finger_width():.1f} mm, held: '
+              f'{self.bot.world.held_object() or "nothing"}')
         ok = self.line('Approach Pick', APPROACH_HEIGHT) and \
-            self.goto('Approach Drop', d_xyz, d_pitch, APPROACH_HEIGHT) and \
-            self.line('Drop', -APPROACH_HEIGHT)
+            self.goto('Approach Place', place, d_pitch, APPROACH_HEIGHT) and \
+            self.line('Place', -APPROACH_HEIGHT)
         self.trace.phase('release')
         g.release(delay=0.5)
-        self.set_object(0.0)
-        return ok and self.line('Approach Drop', APPROACH_HEIGHT)
+        return ok and self.line('Approach Place', APPROACH_HEIGHT)
+
+
+def parse_targets(text: str) -> dict:
+    """Return {name: (x, y[, z])} [m] of 'name:x,y[,z] name:x,y' (command line)."""
+    out = {}
+    for item in text.split():
+        name, _, xyz = item.partition(':')
+        values = [float(v) for v in xyz.split(',') if v.strip()]
+        if not name or len(values) not in (2, 3):
+            raise ValueError(f'bad target {item!r}: expected name:x,y or name:x,y,z [m]')
+        out[name] = tuple(values)
+    return out
 
 
 def main(argv=None) -> int:
-    """Run the demo; return the exit code."""
+    """Run the demo; return the exit code (0 only when every object is placed)."""
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--connect', action='store_true',
                         help='use sim_driver/ik_service/trajectory_server already running')
     parser.add_argument('--robot-name', default='px100', help='namespace of the nodes')
-    parser.add_argument('--moving-time', type=float, default=0.8,
-                        help='shortest joint-space move [s] (default 0.8; longer moves get '
+    parser.add_argument('--moving-time', type=float, default=1.0,
+                        help='shortest joint-space move [s] (default 1.0; longer moves get '
                              'the time they need)')
     parser.add_argument('--out', default=os.path.join(ROOT, 'out'), help='output folder')
     parser.add_argument('--no-bag', action='store_true', help='do not record an MCAP bag')
-    parser.add_argument('--objects', default='object1,object2,object3',
-                        help='comma-separated subset of seed 000 objects')
+    parser.add_argument('--no-plots', action='store_true', help='do not write plots')
+    parser.add_argument('--scene', default='pick_place',
+                        help='scene name (config/scenes) or .yaml path (default pick_place)')
+    parser.add_argument('--objects', default='',
+                        help='comma-separated subset of the scene objects (default: all)')
+    parser.add_argument('--targets', default='',
+                        help="targets 'name:x,y[,z] ...' [m] (default: the pick_place targets)")
+    parser.add_argument('--tolerance', type=float, default=0.01,
+                        help='largest distance [m] from the target that counts as placed')
+    parser.add_argument('--jitter', type=float, default=0.0,
+                        help='move the objects initial x, y by up to this [m] (uniform)')
+    parser.add_argument('--seed', type=int, default=0, help='seed of --jitter')
+    parser.add_argument('--grasp-offset', type=float, default=0.0,
+                        help='grasp this far [m] beside the object centre, along the closing '
+                             'direction (to see a bad grasp fail)')
+    parser.add_argument('--gripper-pressure', type=float, default=1.0,
+                        help='gripper pressure 0..1 (the grasp PWM)')
+    parser.add_argument('--json', default='',
+                        help='also write the outcome (per object: verdict, final, target, '
+                             'error [m]) to this JSON file')
     parser.add_argument('--bringup', choices=('thread', 'process'), default='thread',
                         help='run the nodes as threads of this process (default) or as child '
                              'processes (more robust on a loaded machine)')
@@ -343,57 +444,100 @@ def main(argv=None) -> int:
     if args.viewer:
         os.environ['PX100_VIEWER'] = '1'      # the in-process bringup adds the viewer node
 
+    from px100_control.bag.world import format_placements, placement_verdict
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
 
     out_dir = os.path.abspath(args.out)
     os.makedirs(out_dir, exist_ok=True)
+    try:
+        targets = dict(TARGETS)
+        targets.update(parse_targets(args.targets))
+    except ValueError as exc:
+        parser.error(str(exc))
+    scene = args.scene
+    if args.jitter:
+        scene = jittered_scene(scene, args.jitter, args.seed, out_dir)
+        print(f'scene with objects jittered by up to {1000 * args.jitter:g} mm '
+              f'(seed {args.seed}): {scene}')
     started = time.monotonic()
     bot = InterbotixManipulatorXS('px100', 'arm', 'gripper', robot_name=args.robot_name,
                                   moving_time=args.moving_time, accel_time=0.3,
-                                  gripper_pressure=1.0,
+                                  gripper_pressure=args.gripper_pressure,
                                   bringup=False if args.connect else (
                                       'process' if args.bringup == 'process' else True),
-                                  real_time_factor=args.real_time_factor)
+                                  real_time_factor=args.real_time_factor,
+                                  node_kwargs={'parameters': {'scene': scene}})
     robot_startup()
+    if args.connect and scene != 'pick_place':
+        sim = bot.core.find_node('sim_driver')
+        problem = bot.core.set_remote_parameters(sim, {'scene': scene}) if sim else \
+            'no sim_driver found'
+        if problem:
+            print(f'cannot load scene {scene!r}: {problem}')
+            robot_shutdown()
+            return 2
     stop_bag, bag_dir = (None, 'disabled (--no-bag)') if args.no_bag else start_bag(bot, out_dir)
     trace = Trace(bot, subscribe=stop_bag is None)
-    demo = Demo(bot, trace, args.moving_time)
-    objects = {}
+    demo = Demo(bot, trace, args.moving_time, grasp_offset=args.grasp_offset)
+    placements = []
     try:
+        bot.world.wait_for_update(2.0)
+        names = bot.world.list_objects()
+        if args.objects:
+            wanted = [s.strip() for s in args.objects.split(',') if s.strip()]
+            unknown = [n for n in wanted if n not in names]
+            if unknown:
+                raise SystemExit(f'unknown object(s) {unknown}; the scene has {names}')
+            names = wanted
+        missing = [n for n in names if n not in targets]
+        if missing:
+            raise SystemExit(f'no target for {missing}: give --targets name:x,y')
+        start = {n: bot.world.get_object_pose(n)[:3, 3] for n in names}
+        goal = {n: np.array([targets[n][0], targets[n][1],
+                             targets[n][2] if len(targets[n]) > 2 else start[n][2]])
+                for n in names}
         trace.phase('Home')
         bot.arm.go_to_home_pose(moving_time=max(1.5, args.moving_time))
-        for name in [s.strip() for s in args.objects.split(',') if s.strip()]:
-            pick, place = (mm_to_m(t) for t in SEED000_OBJECTS[name])
-            objects[name] = {'pick': pick, 'place': place, 'status': 'skipped'}
-            reason = demo.reachable(*pick) or demo.reachable(*place)
-            if reason:
-                print(f'{name}: SKIPPED, {reason}')
-                objects[name]['reason'] = reason
-                continue
-            ok = demo.move_object(name, pick, place)
-            objects[name]['status'] = 'done' if ok else 'failed'
+        for name in names:
+            demo.move_object(name, goal[name])
         trace.phase('Sleep')
+        bot.gripper.release(delay=0.2)
         bot.arm.go_to_sleep_pose(moving_time=max(1.5, args.moving_time), accel_time=0.3)
-        time.sleep(0.3)
+        bot.core.sleep(0.5)                # objects settle
+        bot.world.wait_for_update(1.0)
+        final = {n: T[:3, 3] for n, T in bot.world.get_object_poses().items()}
     finally:
         if stop_bag is not None:
             stop_bag()
         robot_shutdown()
     if stop_bag is not None:
         trace.read_bag(bag_dir)
-    paths = plot(trace, objects, out_dir)
-    done = [n for n, o in objects.items() if o['status'] == 'done']
-    print(f'\nmoved {len(done)}/{len(objects)} objects ({", ".join(done) or "none"}) in '
-          f'{time.monotonic() - started:.1f} s')
-    for name, o in objects.items():
-        if o['status'] != 'done':
-            print(f'  {name}: {o["status"]}' + (f' ({o["reason"]})' if 'reason' in o else ''))
+    world = trace.world.result()
+    for name in names:
+        heights = world.paths[name][1][:, 2] if name in world.paths else None
+        placements.append(placement_verdict(name, start[name], final[name], goal[name],
+                                            heights=heights, tolerance=args.tolerance))
+    verdicts = {p.name: p.verdict for p in placements}
+    paths = [] if args.no_plots else plot(trace, {n: goal[n] for n in names}, verdicts, out_dir)
+    placed = [p.name for p in placements if p.verdict == 'placed']
+    print()
+    print(format_placements(placements))
+    print(f'\nplaced {len(placed)}/{len(placements)} objects within '
+          f'{1000 * args.tolerance:g} mm in {time.monotonic() - started:.1f} s')
+    if demo.failures:
+        print(f'failed steps: {", ".join(demo.failures)}')
     hint = f'   (summary, plots: ros2 run px100_control inspect {bag_dir})' \
         if stop_bag is not None else ''
     print(f'bag:   {bag_dir}{hint}')
     for p in paths:
         print(f'plot:  {p}')
-    return 0 if not demo.failures else 1
+    if args.json:
+        import json
+        with open(args.json, 'w', encoding='utf-8') as f:
+            json.dump({'scene': scene, 'seed': args.seed, 'jitter': args.jitter,
+                       'seconds': time.monotonic() - started, 'failed_steps': demo.failures,
+                       'objects': [p.__dict__ for p in placements]}, f, indent=1)
+    return 0 if len(placed) == len(placements) else 1
 
 
 if __name__ == '__main__':

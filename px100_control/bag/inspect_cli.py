@@ -4,7 +4,9 @@
 Prints the files, time span and, per topic, type, message count, rate and QoS. Unless
 ``--no-plots``, writes into ``--output`` (default ``<bag>_plots``): ``joints.png`` (joint
 positions and setpoints over time), ``tracking_error.png`` (setpoint - measured),
-``ee_path.png`` (the end-effector path in 3D: ee_pose, else forward kinematics) and ``arm.gif``
+``ee_path.png`` (the end-effector path in 3D: ee_pose, else forward kinematics),
+``object_paths.png`` (when the bag has ``world/markers``: the objects' paths, top view and
+height vs time, next to the end effector's) and ``arm.gif``
 (an animation of the arm from joint_states through the URDF recorded in the bag, else the
 ``--robot-model``'s). Needs no ROS graph (and no ROS install). A missing, empty, truncated or
 corrupt bag, or an unknown topic: one clear error line and exit status 1.
@@ -94,6 +96,11 @@ def write_plots(reader: BagReader, out_dir: str, namespace: Optional[str] = None
     if len(xyz):
         written.append(plots.plot_ee_path(t, xyz, os.path.join(out_dir, 'ee_path.png'),
                                           source=source))
+    from px100_control.bag.world import extract_object_paths
+    world = extract_object_paths(reader, series.namespace, series.start_ns)
+    if world.objects():
+        written.append(plots.plot_object_paths(t, xyz, world,
+                                               os.path.join(out_dir, 'object_paths.png')))
     if gif and tree is not None:
         try:
             written.append(plots.animate_arm(series, tree, os.path.join(out_dir, 'arm.gif'),

@@ -5,11 +5,12 @@ Plots of a recorded run: joint positions and setpoints, tracking error, end-effe
 joint_setpoints``, ``trajectory/feedback``, ``ee_pose`` of one robot namespace); the plot
 functions draw them with matplotlib's Agg backend (no display needed) and return the file they
 wrote. Times are seconds from the start of the bag, positions in rad (m for prismatic joints),
-the end-effector path in m in the robot's base frame.
+the end-effector path in m in the robot's base frame. :func:`plot_object_paths` draws the
+simulated objects' paths (``world/markers``) next to the end effector's.
 """
 from dataclasses import dataclass, field
 import os
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 from px100_control.bag.reader import BagReader
@@ -254,6 +255,66 @@ def plot_ee_path(t: np.ndarray, xyz: np.ndarray, path: str, title: str = '',
     fig.colorbar(sc, ax=ax, shrink=0.6, label='time [s]')
     ax.legend(fontsize=8, loc='upper left')
     ax.set_title(title or 'end-effector path' + (f' ({source})' if source else ''), fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_object_paths(ee_t: np.ndarray, ee_xyz: np.ndarray, world, path: str,
+                      title: str = '', targets: Optional[Dict[str, Sequence[float]]] = None,
+                      verdicts: Optional[Dict[str, str]] = None) -> str:
+    """
+    Draw the objects' paths next to the end effector's: top view (x, y) and height z vs time.
+
+    :param ee_t, ee_xyz: end-effector times [s] and positions [m] (may be empty)
+    :param world: :class:`px100_control.bag.world.ObjectPaths` (same time origin)
+    :param targets: optional name -> target position [m], drawn as crosses
+    :param verdicts: optional name -> verdict text, shown in the legend
+    :raises BagError: no object paths
+    """
+    names = world.objects()
+    if not names:
+        raise BagError('no object paths (no world/markers with objects)')
+    plt = _pyplot()
+    fig, (top, side) = plt.subplots(1, 2, figsize=(13, 5.5),
+                                    gridspec_kw={'width_ratios': [1, 1.4]})
+    if len(ee_xyz):
+        top.plot(ee_xyz[:, 0], ee_xyz[:, 1], color='gray', lw=0.8, alpha=0.7,
+                 label='end effector')
+        side.plot(ee_t, ee_xyz[:, 2], color='gray', lw=0.8, alpha=0.7, label='end effector')
+    colors = plt.rcParams['axes.prop_cycle'].by_key()['color']
+    for k, name in enumerate(names):
+        t, xyz = world.paths[name]
+        c = colors[k % len(colors)]
+        label = name + (f' ({verdicts[name]})' if verdicts and name in verdicts else '')
+        top.plot(xyz[:, 0], xyz[:, 1], color=c, lw=1.6, label=label)
+        top.scatter(*xyz[0, :2], color=c, marker='o', s=30)
+        top.scatter(*xyz[-1, :2], color=c, marker='s', s=30)
+        side.plot(t, xyz[:, 2], color=c, lw=1.6, label=label)
+        if targets and name in targets:
+            tx, ty, tz = (float(v) for v in targets[name])
+            top.scatter(tx, ty, color=c, marker='x', s=80, lw=2)
+            side.axhline(tz, color=c, ls=':', lw=0.8)
+    t_held, held = world.held
+    for i, name in enumerate(held):     # shade the times an object is held
+        if name and i + 1 < len(t_held):
+            side.axvspan(t_held[i], t_held[i + 1], color='gold', alpha=0.15, lw=0)
+        elif name:
+            side.axvspan(t_held[i], side.get_xlim()[1], color='gold', alpha=0.15, lw=0)
+    top.scatter([0], [0], color='k', marker='+', s=60, label='robot base')
+    top.set_aspect('equal', adjustable='datalim')
+    top.set_xlabel('x [m]')
+    top.set_ylabel('y [m]')
+    top.set_title('top view (o start, s end, x target)', fontsize=10)
+    top.grid(True, alpha=0.3)
+    top.legend(fontsize=7, loc='best')
+    side.set_xlabel('time [s]')
+    side.set_ylabel('z [m]')
+    side.set_title('height (shaded: an object is held)', fontsize=10)
+    side.grid(True, alpha=0.3)
+    side.legend(fontsize=7, loc='best')
+    fig.suptitle(title or 'object paths and end-effector path (base frame)')
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -24,6 +24,8 @@ child processes instead, which share no interpreter lock with the script);
 10 s) before an InterbotixException names what is missing. ROS 1 scripts work too: they never
 call ``robot_startup()`` (the node spins from construction on), may pass ``init_node`` /
 ``use_gripper`` / ``joint_state_topic``, and use ``bot.dxl``, ``gripper.open()/close()``.
+``bot.world`` (px100_control extension, :mod:`px100_control.client.world`) lists the simulated
+scene's objects, reads their poses and resets them.
 """
 from typing import Optional
 
@@ -31,6 +33,7 @@ from px100_control.client.arm import InterbotixArmXSInterface
 from px100_control.client.core import InterbotixRobotXSCore
 from px100_control.client.gripper import InterbotixGripperXSInterface
 from px100_control.client.robot import robot_shutdown
+from px100_control.client.world import InterbotixWorldInterface
 from rclpy.logging import LoggingSeverity
 
 
@@ -88,6 +91,8 @@ class InterbotixManipulatorXS:
             core=self.core, robot_model=robot_model, group_name=group_name,
             moving_time=moving_time, accel_time=accel_time,
             iterative_update_fk=iterative_update_fk)
+        #: the simulated scene (px100_control extension): objects, poses, held object, reset
+        self.world = InterbotixWorldInterface(self.core)
         if gripper_name is not None:
             self.gripper = InterbotixGripperXSInterface(
                 core=self.core, gripper_name=gripper_name, gripper_pressure=gripper_pressure,

@@ -1,48 +1,54 @@
 """
-The simulated arm: rigid-body joint dynamics, one servo and one PID loop per joint, the gripper.
+The simulated arm: MuJoCo physics under this project's per-joint PIDs and XL430 servo model.
 
-:class:`ArmSimulator` holds the state (q, qd per arm joint, the gripper angle) and advances it by
-a fixed control period ``dt = 1 / control_rate`` per :meth:`ArmSimulator.step`; it owns no clock
-(time is what you step). Each step, for every joint:
+:class:`ArmSimulator` advances the arm, its gripper and an optional scene of objects by a fixed
+control period ``dt = 1 / control_rate`` per :meth:`ArmSimulator.step`; it owns no clock (time
+is what you step). Each step, for every arm joint:
 
-1. PID (:mod:`.pid`) on the held setpoint -> torque command u [N*m]; the gripper may instead be
-   in effort mode (u = the commanded effort);
-2. servo (:mod:`.actuator`): u -> PWM duty (saturated at the stall torque), drive torque
-   ``stall * duty``, back-EMF damping while torque is on; torque off -> no drive, the motor coasts;
-3. plant: ``(M(q) + armature) qdd = drive - h(q, qd) - damping qd - Coulomb friction`` with M and
-   h from :mod:`.dynamics` (URDF inertials), integrated by semi-implicit Euler with the viscous
-   terms (URDF damping + back-EMF) implicit, so stiff servo damping stays stable at 1 kHz;
-   Coulomb friction (URDF ``friction``, N*m) is a velocity-level impulse that can stop the joint
-   (stiction), joint by joint on the diagonal of the iteration matrix;
-4. limits: while torque is on the speed is held within the joint's velocity limit (the servo's
-   Velocity_Limit); the joint position stops inelastically at its URDF limits (hard stops).
+1. control law by the joint's mode (:meth:`ArmSimulator.set_mode`): 'position' = PID
+   (:mod:`.pid`) on the held setpoint (default), 'velocity' = PI on velocity, 'torque' = the
+   commanded joint torque [N*m] (Dynamixel current control), 'duty' = the commanded PWM duty;
+2. servo (:mod:`.actuator`): torque command -> PWM duty (saturated), drive torque
+   ``stall * duty`` plus back-EMF damping while torque is on (torque mode: the commanded
+   torque within what the supply voltage allows at that speed); torque off -> the motor coasts;
+3. plant: MuJoCo (:mod:`px100_control.sim.mjcf`, the model built from the robot's URDF) applies
+   the drive torques (``qfrc_applied``) and integrates the rigid-body dynamics, joint damping
+   (URDF + back-EMF, implicit), Coulomb friction (URDF ``friction`` -> ``frictionloss``),
+   rotor armature, joint limits (stiff hard stops) and contacts with the scene;
+4. while torque is on the speed is held within the joint's velocity limit (the servo's
+   Velocity_Limit).
 
-``dynamics_divider`` k re-evaluates M(q) and h(q, qd) every k-th step; the control law, servo,
-friction, limits and integration always run every step. The default 4 (rigid-body terms at
-250 Hz, far above the arm's few-Hz mechanical bandwidth) halves the cost of a step; against
-k = 1 (exact) it moves a saturated 0.5 rad shoulder step by at most 0.4 mrad and a 2 s move by
-less than 0.05 mrad (see test_sim_simulator.py). Set 1 for the exact integration. The gripper is
-a separate one-degree-of-freedom plant (:mod:`.gripper`); its links ride on the wrist body of
-the arm dynamics, frozen at gripper angle 0.
+The gripper is servo-driven through its linkage (:mod:`.gripper`): the left finger slide is the
+MuJoCo degree of freedom (the right one follows through a stiff equality), the horn angle
+theta [rad] follows from the finger position; the horn torque u [N*m] of its PID (or the
+commanded effort) drives each finger with ``u / (2 d'(theta))`` [N], and the horn's armature,
+back-EMF damping and friction are reflected onto the fingers by ``d'(theta)``. Objects are
+moved only by contact: the finger pads squeeze them with friction (never attached).
+
+Scene API (see :mod:`px100_control.sim`): :meth:`~ArmSimulator.objects`,
+:meth:`~ArmSimulator.object_poses`, :meth:`~ArmSimulator.held_object`,
+:meth:`~ArmSimulator.reset` (arm and scene), :meth:`~ArmSimulator.reset_scene`.
 
 Setpoints are validated before anything is applied (:func:`parse_setpoints` and
-:meth:`ArmSimulator.apply`): unknown or duplicate names, NaN/inf, length mismatches and
-out-of-limit positions or velocities raise a :class:`~px100_control.errors.Px100Error` with the
-reason, and nothing of that command is used. A velocity feed-forward expires ``ff_timeout``
-seconds after its setpoint (a stalled command stream leaves the joint holding, not drifting).
-Units: rad, m, s, N*m.
+:meth:`ArmSimulator.apply`): unknown or duplicate names, NaN/inf, length mismatches, values
+outside the limits and fields that do not match the joint's mode raise a
+:class:`~px100_control.errors.Px100Error` with the reason, and nothing of that command is used.
+A velocity feed-forward expires ``ff_timeout`` seconds after its setpoint. Units: rad, m, s, N*m.
 """
 from dataclasses import dataclass, field
 import math
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
+import mujoco
 import numpy as np
-
 from px100_control.control.actuator import servo_for_joint, ServoSpec
-from px100_control.control.dynamics import ChainDynamics, dynamics_for_model, GRAVITY
 from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import Pid, PidGains
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
+from px100_control.sim.mjcf import build_model, GRAVITY
+
+#: control modes of a joint (see the module docstring)
+MODES = ('position', 'velocity', 'torque', 'duty')
 
 #: default gains of a revolute arm joint (SI): about 5x the XL430 factory stiffness (P 640 =
 #: 5.16 N*m/rad) with integral action, so the arm holds within 1 mrad under gravity and Coulomb
@@ -55,6 +61,9 @@ DEFAULT_PRISMATIC_GAINS = PidGains(p=2000.0, i=4000.0, d=150.0, i_clamp=30.0, u_
 #: default gains of the gripper servo in position mode.
 DEFAULT_GRIPPER_GAINS = PidGains(p=5.0, i=20.0, d=0.1, i_clamp=0.5, u_clamp=1.4,
                                  ff_velocity=0.0)
+#: default gains of the velocity mode's PI loop (p [N*m*s/rad], i [N*m/rad]; d unused)
+DEFAULT_VELOCITY_GAINS = PidGains(p=1.0, i=20.0, d=0.0, i_clamp=1.0, u_clamp=1.4,
+                                  ff_velocity=0.333)
 #: position tolerance when checking limits [rad or m]
 LIMIT_TOLERANCE = 1e-6
 
@@ -85,7 +94,8 @@ class SimConfig:
     Simulation settings.
 
     :param control_rate: physics and control rate [Hz]
-    :param dynamics_divider: re-evaluate M(q), h(q, qd) every k steps (1 = exact)
+    :param dynamics_divider: accepted for compatibility and ignored (MuJoCo evaluates the
+        dynamics every step)
     :param default_damping/default_friction: for joints whose URDF has no <dynamics>
     :param servo_overrides: ServoSpec fields to change for every joint (e.g. armature)
     :param object_width: width of an object between the fingers [m] (0 = none)
@@ -148,13 +158,18 @@ def _finite(values, what: str) -> List[float]:
 
 def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
                     velocity: Sequence[float] = (), effort: Sequence[float] = (),
-                    known: Sequence[str] = (), gripper: Optional[str] = None) -> SetpointCommand:
+                    known: Sequence[str] = (), gripper: Optional[str] = None,
+                    modes: Optional[Mapping[str, str]] = None) -> SetpointCommand:
     """
     Return the SetpointCommand of a JointState-like setpoint, or raise with the reason.
 
-    ``position`` (with optional ``velocity`` feed-forward) selects position control for the
-    named joints; ``effort`` selects effort control and only the gripper has it. Give one of
-    position or effort. Each array is empty or has one value per name.
+    Without ``modes`` (every joint in position mode): ``position`` (with optional ``velocity``
+    feed-forward) for the named joints, or ``effort`` for the gripper only. With ``modes``
+    ({joint: mode}, see :data:`MODES`): a command is one kind for all its joints: position
+    (+ velocity feed-forward) for 'position' joints, velocity alone for 'velocity' joints,
+    effort for 'torque' ([N*m]) and 'duty' ([-1, 1]) joints; the gripper in its default mode
+    (absent from ``modes``) takes position or effort. Each array is empty or has one value per
+    name.
     :param known: the joints that accept setpoints (arm joints and the gripper)
     :raises InvalidInputError: empty, mismatched lengths, duplicates, NaN/inf, wrong mode
     :raises UnknownJointError: a name that is not in ``known``
@@ -175,6 +190,8 @@ def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
     for what, arr in (('position', position), ('velocity', velocity), ('effort', effort)):
         if len(arr) not in (0, len(names)):
             raise InvalidInputError(f'{len(names)} joint names but {len(arr)} {what} values')
+    if modes is not None:
+        return _parse_moded(names, position, velocity, effort, gripper, modes)
     if len(velocity) and not len(position):
         raise InvalidInputError('velocity feed-forward needs position values')
     if not len(position) and not len(effort):
@@ -194,48 +211,59 @@ def parse_setpoints(names: Sequence[str], position: Sequence[float] = (),
     return cmd
 
 
-def _cholesky(A: List[List[float]]) -> List[List[float]]:
-    """Return the lower Cholesky factor L (A = L L^T) of a small SPD matrix, as lists."""
-    n = len(A)
-    L = [[0.0] * n for _ in range(n)]
-    for i in range(n):
-        Li = L[i]
-        for j in range(i + 1):
-            Lj = L[j]
-            s = A[i][j]
-            for k in range(j):
-                s -= Li[k] * Lj[k]
-            if i == j:
-                if s <= 0.0:
-                    raise np.linalg.LinAlgError('mass matrix is not positive definite')
-                Li[i] = math.sqrt(s)
-            else:
-                Li[j] = s / Lj[j]
-    return L
+def _mode_of(joint: str, gripper: Optional[str], modes: Mapping[str, str]) -> str:
+    mode = modes.get(joint)
+    if mode is None:
+        return 'gripper-default' if joint == gripper else 'position'
+    return mode
 
 
-def _cholesky_solve(L: List[List[float]], b: List[float]) -> List[float]:
-    """Return x with L L^T x = b (forward and back substitution on lists)."""
-    n = len(b)
-    y = [0.0] * n
-    for i in range(n):
-        s = b[i]
-        Li = L[i]
-        for k in range(i):
-            s -= Li[k] * y[k]
-        y[i] = s / Li[i]
-    x = [0.0] * n
-    for i in range(n - 1, -1, -1):
-        s = y[i]
-        for k in range(i + 1, n):
-            s -= L[k][i] * x[k]
-        x[i] = s / L[i][i]
-    return x
+#: command kind -> the modes that accept it
+_ACCEPTS = {'position': ('position', 'gripper-default'), 'velocity': ('velocity',),
+            'effort': ('torque', 'duty', 'gripper-default')}
+_EXPECTS = {'position': 'position values (velocity only as feed-forward)',
+            'velocity': 'velocity values only', 'torque': 'effort values (torque, N*m)',
+            'duty': 'effort values (PWM duty in [-1, 1])',
+            'gripper-default': 'position or effort values'}
 
 
-def _solve_spd(A: List[List[float]], b: List[float]) -> List[float]:
-    """Return x with A x = b for a small symmetric positive definite A (Cholesky, lists)."""
-    return _cholesky_solve(_cholesky(A), b)
+def _parse_moded(names, position, velocity, effort, gripper, modes) -> SetpointCommand:
+    if len(position) and len(effort):
+        raise InvalidInputError('setpoint has both position and effort values')
+    if len(position):
+        kind = 'position'
+    elif len(effort):
+        kind = 'effort'
+        if len(velocity):
+            raise InvalidInputError('setpoint has both velocity and effort values')
+    elif len(velocity):
+        kind = 'velocity'
+    else:
+        raise InvalidInputError('setpoint has neither position, velocity nor effort values')
+    check_modes(names, kind, gripper, modes)
+    if kind == 'effort':
+        return SetpointCommand(efforts=dict(zip(names, _finite(effort, 'effort'))))
+    if kind == 'velocity':
+        return SetpointCommand(velocities=dict(zip(names, _finite(velocity, 'velocity'))))
+    cmd = SetpointCommand(positions=dict(zip(names, _finite(position, 'position'))))
+    if len(velocity):
+        cmd.velocities.update(zip(names, _finite(velocity, 'velocity')))
+    return cmd
+
+
+def check_modes(names, kind: str, gripper: Optional[str], modes: Mapping[str, str]) -> None:
+    """
+    Raise InvalidInputError if a command kind does not match the mode of one of its joints.
+
+    :param kind: 'position', 'velocity' or 'effort'; a mismatched command is refused, never
+        executed as something else
+    """
+    for n in names:
+        mode = _mode_of(n, gripper, modes)
+        if mode not in _ACCEPTS[kind]:
+            raise InvalidInputError(f"joint '{_short(n)}' is in {mode} mode and takes "
+                                    f'{_EXPECTS[mode]}, not {kind} values (set_mode changes '
+                                    f'the mode)')
 
 
 def _quaternion_xyzw(R) -> Tuple[float, float, float, float]:
@@ -272,113 +300,224 @@ def _urdf_joint_dynamics(urdf_xml: Optional[str]) -> Dict[str, Tuple[float, floa
     return out
 
 
-def _gripper_inertia(urdf_xml: Optional[str], gripper_joint: str, fingers) -> Tuple[float, float]:
-    """Return (horn-side inertia about the gripper axis [kg*m^2], one finger's mass [kg])."""
-    default = (1.2e-6, 0.016)
-    if not urdf_xml:
-        return default
-    from px100_control.models.urdf_chain import load_urdf
-    urdf = load_urdf(urdf_xml)
-    joints = {j.name: j for j in urdf.robot.joints}
-    links = {link.name: link for link in urdf.robot.links}
-    joint = joints.get(gripper_joint)
-    if joint is None:
-        return default
-    J = default[0]
-    link = links.get(joint.child)
-    if link is not None and link.inertial is not None:
-        axis = np.array(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
-        axis /= np.linalg.norm(axis)
-        To = np.eye(4) if link.inertial.origin is None else np.array(link.inertial.origin)
-        I_c = np.zeros((3, 3)) if link.inertial.inertia is None else np.array(
-            link.inertial.inertia, float)
-        R, c = To[:3, :3], To[:3, 3]
-        m = float(link.inertial.mass or 0.0)
-        r_perp = c - (c @ axis) * axis
-        J = float(axis @ R @ I_c @ R.T @ axis + m * (r_perp @ r_perp))
-    finger_mass = default[1]
-    finger = joints.get(fingers[0]) if fingers else None
-    if finger is not None and links.get(finger.child) is not None:
-        inertial = links[finger.child].inertial
-        if inertial is not None and inertial.mass:
-            finger_mass = float(inertial.mass)
-    return J, finger_mass
+@dataclass(frozen=True)
+class ObjectInfo:
+    """
+    A body of the scene.
+
+    kind 'object' | 'fixture' | 'table'; shape 'box' | 'cylinder' | 'sphere'; size (box: full
+    x, y, z extents; cylinder: radius, height; sphere: radius) [m]; rgba (4 floats 0..1);
+    mass [kg] (0 for static bodies).
+    """
+
+    name: str
+    kind: str
+    shape: str
+    size: Tuple[float, ...]
+    rgba: Tuple[float, float, float, float]
+    mass: float
+
+
+class PlantDynamics:
+    """
+    Rigid-body quantities of the arm from the simulator's MuJoCo model (arm joints only).
+
+    M(q) includes the rotor armature, h(q, qd) = C(q, qd) qd + g(q) [N*m]; the gripper and the
+    objects stay where they are. ``notes`` say how the URDF inertials were interpreted.
+    """
+
+    def __init__(self, sim: 'ArmSimulator'):
+        self._sim = sim
+        self.notes = sim.built.notes
+        self.gravity = GRAVITY
+
+    def _at(self, q, qd):
+        sim = self._sim
+        m, d = sim.mj_model, mujoco.MjData(sim.mj_model)
+        d.qpos[:] = sim.mj_data.qpos
+        d.qpos[list(sim.built.arm_qpos)] = np.asarray(q, float)
+        d.qvel[list(sim.built.arm_dof)] = np.asarray(qd, float)
+        mujoco.mj_forward(m, d)
+        return m, d
+
+    def evaluate(self, q, qd) -> Tuple[np.ndarray, np.ndarray]:
+        """Return (M (n, n) with armature, h (n,)) at joint positions q and velocities qd."""
+        m, d = self._at(q, qd)
+        full = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, full)
+        idx = list(self._sim.built.arm_dof)
+        return full[np.ix_(idx, idx)], d.qfrc_bias[idx].copy()
+
+    def mass_matrix(self, q) -> np.ndarray:
+        """Return M(q) + diag(armature) (n, n) [kg*m^2]."""
+        return self.evaluate(q, np.zeros(len(q)))[0]
+
+    def gravity_torque(self, q) -> np.ndarray:
+        """Return g(q) (n,): the joint torques [N*m] that hold the arm still at q."""
+        return self.evaluate(q, np.zeros(len(q)))[1]
+
+    def bias_forces(self, q, qd) -> np.ndarray:
+        """Return h(q, qd) (n,) [N*m]."""
+        return self.evaluate(q, qd)[1]
 
 
 class ArmSimulator:
     """
-    Simulated arm + gripper with per-joint PID servos (see the module docstring).
+    Simulated arm + gripper (+ scene) with per-joint PID servos on MuJoCo (module docstring).
 
     :param model: a RobotModel (joint_names, limits, sleep, urdf_xml, gripper)
     :param config: SimConfig; gains: {joint: PidGains} (defaults per joint type)
+    :param scene: a :class:`px100_control.sim.scene.Scene` of objects, or None (no objects)
     """
 
     def __init__(self, model, config: SimConfig = SimConfig(),
-                 gains: Optional[Mapping[str, PidGains]] = None):
+                 gains: Optional[Mapping[str, PidGains]] = None, scene=None):
         self.model = model
         self.config = config
+        self.scene = scene
         self.names: Tuple[str, ...] = tuple(model.joint_names)
         self.n = len(self.names)
-        self.dt = 1.0 / config.control_rate
         overrides = dict(model.extra.get('dynamics', {}) or {}) if model.extra else {}
         overrides = {k: float(v) for k, v in overrides.items() if k in ServoSpec.__annotations__
                      and k != 'model'}
         overrides.update(config.servo_overrides)
         self.servos = [servo_for_joint(t, float(e), overrides)
                        for t, e in zip(model.joint_types, model.effort_limits)]
-        gripper_spec = model.gripper
-        fixed = {}
-        if gripper_spec is not None:
-            self.linkage = GripperLinkage(gripper_spec.horn_radius, gripper_spec.arm_length,
-                                          gripper_spec.finger_lower, gripper_spec.finger_upper)
-            d0 = self.linkage.finger_position(0.0)
-            fixed = {gripper_spec.joint: 0.0, gripper_spec.fingers[0]: d0}
-        else:
-            self.linkage = None
-        self.dynamics: ChainDynamics = dynamics_for_model(
-            model, [s.armature for s in self.servos], fixed_values=fixed)
+        if scene is not None:
+            from px100_control.sim.scene import check_reach
+            check_reach(scene, model)
+        self.built = build_model(model, scene, 1.0 / config.control_rate)
+        self.mj_model = m = self.built.model
+        m.opt.gravity[2] = -float(config.gravity)
+        m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+        self.mj_data = mujoco.MjData(m)
+        self.dynamics = PlantDynamics(self)
+        b = self.built
+        self._arm_dof = list(b.arm_dof)
+        self._arm_qpos = list(b.arm_qpos)
+        n = self.n
+        # the arm joints come first in MuJoCo's tree order: plain slices are the fast path
+        self._contiguous = (self._arm_qpos == list(range(n)) and self._arm_dof == list(range(n)))
         jd = _urdf_joint_dynamics(model.urdf_xml)
         self._damping = [jd.get(nm, (config.default_damping, 0.0))[0] for nm in self.names]
         self._friction = [jd.get(nm, (0.0, config.default_friction))[1] for nm in self.names]
+        m.dof_armature[self._arm_dof] = [s.armature for s in self.servos]
+        m.dof_frictionloss[self._arm_dof] = self._friction
         self.lower = [float(x) for x in model.lower]
         self.upper = [float(x) for x in model.upper]
         self.vel_limit = [min(float(v), s.velocity_limit) if math.isfinite(v) and v > 0
                           else s.velocity_limit
                           for v, s in zip(model.velocity_limits, self.servos)]
+        self._vlim = np.array(self.vel_limit)
         gains = dict(gains or {})
         self.pids = [Pid(gains.get(nm, default_gains(t, s.stall_torque)))
                      for nm, t, s in zip(self.names, model.joint_types, self.servos)]
+        self.velocity_pids = [Pid(_scaled(DEFAULT_VELOCITY_GAINS, s.stall_torque / 1.4))
+                              for s in self.servos]
+        self.modes: Dict[str, str] = {}
         # gripper
+        gripper_spec = model.gripper
         self.gripper_name = gripper_spec.joint if gripper_spec is not None else None
         self.finger_names = tuple(gripper_spec.fingers) if gripper_spec is not None else ()
+        self.linkage = None
         if gripper_spec is not None:
+            self.linkage = GripperLinkage(gripper_spec.horn_radius, gripper_spec.arm_length,
+                                          gripper_spec.finger_lower, gripper_spec.finger_upper)
             self.gripper_servo = servo_for_joint('revolute', None, overrides)
             g_d, g_f = jd.get(self.gripper_name, (config.default_damping,
                                                   config.default_friction))
             self.gripper_damping, self.gripper_friction = g_d, g_f
-            self.gripper_inertia, self.finger_mass = _gripper_inertia(
-                model.urdf_xml, self.gripper_name, self.finger_names)
+            self.gripper_inertia = _horn_inertia(model.urdf_xml, self.gripper_name)
             self.gripper_pid = Pid(gains.get(self.gripper_name, default_gains('gripper')))
+            self.gripper_velocity_pid = Pid(DEFAULT_VELOCITY_GAINS)
             self.gripper_lower = self.linkage.angle_lower
             self.gripper_upper = self.linkage.angle_upper
-        M = np.asarray(model.M, dtype=float)
-        self._ee_home = (M[:3, :3].tolist(), M[:3, 3].tolist())
+            self._fq, self._fd = b.finger_qpos, b.finger_dof
+            self._finger_range = (m.jnt_range[m.dof_jntid[self._fd[0]]].copy(),
+                                  m.jnt_range[m.dof_jntid[self._fd[1]]].copy())
+        self._qpos, self._qvel = self.mj_data.qpos, self.mj_data.qvel
+        self._qfrc = self.mj_data.qfrc_applied
+        if gripper_spec is not None:
+            d0 = self.linkage.finger_position(0.0)
+            self._qpos[self._fq[0]], self._qpos[self._fq[1]] = d0, -d0
+            self._gripper_force(self.dt, False)          # the fingers' reflected armature
+        # constraint regularisation (invweight0) computed with the armatures in place
+        mujoco.mj_setConst(m, self.mj_data)
+        self._object_adr = [(name, b.object_qpos[name], b.object_dof[name])
+                            for name in b.object_qpos]
+        self._initial = {o.name: (list(o.position), _wxyz(o.quaternion_xyzw))
+                         for o in (scene.objects if scene is not None else ())}
+        self._pads = set(b.pad_geoms)
+        self._geom_object = {}
+        self._static_geoms = set()
+        for name, bid in b.bodies.items():
+            first = int(m.body_geomadr[bid])
+            for g in range(first, first + int(m.body_geomnum[bid])):
+                if scene.body(name).kind == 'object':
+                    self._geom_object[g] = name
+                else:
+                    self._static_geoms.add(g)
         self.object_width = 0.0
-        self.set_object_width(config.object_width)
+        self._object_half = None
         self.time = 0.0
         self.torque_enabled = True
+        self.set_object_width(config.object_width)
         self.reset()
+
+    # --- time step -------------------------------------------------------------------------------
+    @property
+    def dt(self) -> float:
+        """Return the control and physics period [s]."""
+        return float(self.mj_model.opt.timestep)
+
+    @dt.setter
+    def dt(self, value: float) -> None:
+        self.mj_model.opt.timestep = float(value)
+
+    # --- state -----------------------------------------------------------------------------------
+    @property
+    def q(self) -> List[float]:
+        """Return the measured arm joint positions [rad or m] (a new list)."""
+        if self._contiguous:
+            return self._qpos[:self.n].tolist()
+        return self._qpos[self._arm_qpos].tolist()
+
+    @q.setter
+    def q(self, values) -> None:
+        self._qpos[self._arm_qpos] = [float(v) for v in values]
+
+    @property
+    def qd(self) -> List[float]:
+        """Return the measured arm joint speeds [rad/s or m/s] (a new list)."""
+        if self._contiguous:
+            return self._qvel[:self.n].tolist()
+        return self._qvel[self._arm_dof].tolist()
+
+    @qd.setter
+    def qd(self, values) -> None:
+        self._qvel[self._arm_dof] = [float(v) for v in values]
+
+    @property
+    def g_theta(self) -> float:
+        """Return the gripper (horn) angle [rad] from the finger position."""
+        return self.linkage.angle_from_finger(float(self._qpos[self._fq[0]]))
+
+    @property
+    def g_omega(self) -> float:
+        """Return the gripper horn speed [rad/s]."""
+        theta = self.g_theta
+        return float(self._qvel[self._fd[0]]) / self.linkage.finger_rate(theta)
 
     # --- joint losses (URDF <dynamics>) ---------------------------------------------------------
     @property
     def damping(self) -> List[float]:
-        """Return the viscous damping per arm joint [N*m*s/rad]."""
+        """Return the viscous damping per arm joint [N*m*s/rad] (back-EMF excluded)."""
         return list(self._damping)
 
     @damping.setter
     def damping(self, values) -> None:
         self._damping = [float(v) for v in values]
-        self._factor = None
+        self._update_damping()
 
     @property
     def friction(self) -> List[float]:
@@ -388,7 +527,14 @@ class ArmSimulator:
     @friction.setter
     def friction(self, values) -> None:
         self._friction = [float(v) for v in values]
-        self._factor = None
+        self.mj_model.dof_frictionloss[self._arm_dof] = self._friction
+
+    def _update_damping(self) -> None:
+        on = self.torque_enabled
+        self._back_emf = [s.back_emf_damping if on and self.modes.get(nm) != 'torque' else 0.0
+                          for nm, s in zip(self.names, self.servos)]
+        self.mj_model.dof_damping[self._arm_dof] = [d + b for d, b in
+                                                    zip(self._damping, self._back_emf)]
 
     # --- commands ------------------------------------------------------------------------------
     @property
@@ -396,28 +542,86 @@ class ArmSimulator:
         """Return the joints that accept setpoints: the arm joints, then the gripper."""
         return self.names + ((self.gripper_name,) if self.gripper_name else ())
 
+    def mode(self, joint: str) -> str:
+        """Return the control mode of a joint (the gripper's default 'position' takes effort)."""
+        if joint not in self.command_joints:
+            raise UnknownJointError(joint, self.command_joints)
+        return self.modes.get(joint, 'position')
+
+    def set_mode(self, joint: str, mode: str) -> None:
+        """
+        Put one joint (arm joint or gripper) in a control mode (see :data:`MODES`).
+
+        The joint then holds: position mode at its present position, velocity mode at 0 rad/s,
+        torque and duty modes with 0 output (a joint under gravity then falls, as a Dynamixel
+        does at goal current or PWM 0). Commands of another kind are refused from then on.
+        :raises UnknownJointError: no such joint; InvalidInputError: unknown mode
+        """
+        if joint not in self.command_joints:
+            raise UnknownJointError(joint, self.command_joints)
+        if mode not in MODES:
+            raise InvalidInputError(f"unknown control mode {mode!r} for '{joint}' (modes: "
+                                    f"{', '.join(MODES)})")
+        self.modes[joint] = mode
+        if joint == self.gripper_name:
+            theta = self.g_theta
+            self.g_mode = 'effort' if mode in ('torque', 'duty') else mode
+            self.g_ref, self.g_ref_vel, self.g_command = theta, 0.0, 0.0
+            self.gripper_pid.reset()
+            self.gripper_velocity_pid.reset()
+            return
+        i = self.names.index(joint)
+        self.q_ref[i] = self.q[i]
+        self.qd_ref[i] = 0.0
+        self.ff_until[i] = -math.inf
+        self.u_cmd[i] = 0.0
+        self.pids[i].reset()
+        self.velocity_pids[i].reset()
+        self._update_damping()
+
+    def parse(self, names, position=(), velocity=(), effort=()) -> SetpointCommand:
+        """Return the SetpointCommand of a JointState-like setpoint under the joints' modes."""
+        return parse_setpoints(names, position, velocity, effort, self.command_joints,
+                               self.gripper_name, self.modes)
+
     def reset(self) -> None:
         """
-        Go back to the sleep pose at rest, torque on, setpoints = sleep.
+        Go back to the sleep pose at rest, torque on, setpoints = sleep; objects to their start.
+
+        The scene objects return to their initial poses at rest; control modes are kept.
 
         The integrators start holding the arm's weight there (as if the servos had been holding
         the pose, or the arm rests in its cradle as the real PX100 does at sleep), so the arm
         starts in equilibrium instead of sagging; P-only gains have no integrator to preload.
         """
-        self.hold(self.model.sleep)
-        self._step_count = 0
+        mujoco.mj_resetData(self.mj_model, self.mj_data)
         self.torque_enabled = True
         if self.gripper_name:
-            self.g_theta = 0.0
-            self.g_omega = 0.0
+            d0 = self.linkage.finger_position(0.0)
+            self._qpos[self._fq[0]], self._qpos[self._fq[1]] = d0, -d0
             self.g_effort = 0.0
             self.g_mode = 'effort'
             self.g_command = 0.0
             self.g_ref = 0.0
             self.g_ref_vel = 0.0
             self.gripper_pid.reset()
+            self.gripper_velocity_pid.reset()
             self._object_engaged = False
-            self._update_object_engagement()
+            self._set_finger_stop(None)
+        self._put_objects()
+        self.hold(self.model.sleep)
+        self._update_damping()
+
+    def reset_scene(self) -> None:
+        """Put every scene object back at its initial pose, at rest (the arm is untouched)."""
+        self._put_objects()
+        mujoco.mj_forward(self.mj_model, self.mj_data)
+
+    def _put_objects(self) -> None:
+        for name, qadr, dadr in self._object_adr:
+            pos, quat = self._initial[name]
+            self._qpos[qadr:qadr + 7] = pos + quat
+            self._qvel[dadr:dadr + 6] = 0.0
 
     def hold(self, q) -> None:
         """
@@ -432,15 +636,17 @@ class ArmSimulator:
         self.q_ref = list(q)
         self.qd_ref = [0.0] * self.n
         self.ff_until = [-math.inf] * self.n
-        gravity = self.dynamics.evaluate_lists(self.q, self.qd)[1]
-        for pid, g in zip(self.pids, gravity):
+        self.u_cmd = [0.0] * self.n
+        self._qfrc[:] = 0.0
+        mujoco.mj_forward(self.mj_model, self.mj_data)
+        gravity = self.mj_data.qfrc_bias[self._arm_dof].tolist()
+        for pid, vpid, g in zip(self.pids, self.velocity_pids, gravity):
             pid.reset()
             pid.preload(g)
+            vpid.reset()
+            vpid.preload(g)
         self.effort = [float(g) if pid.gains.i > 0 else 0.0
                        for pid, g in zip(self.pids, gravity)]
-        self._M = None
-        self._h = None
-        self._factor = None
 
     def set_torque_enabled(self, enabled: bool) -> None:
         """
@@ -451,14 +657,15 @@ class ArmSimulator:
         """
         enabled = bool(enabled)
         if enabled and not self.torque_enabled:
-            self.q_ref = list(self.q)
+            self.q_ref = self.q
             self.qd_ref = [0.0] * self.n
-            for pid in self.pids:
+            for pid in self.pids + self.velocity_pids:
                 pid.reset()
             if self.gripper_name:
                 self.g_ref, self.g_ref_vel, self.g_command = self.g_theta, 0.0, 0.0
                 self.gripper_pid.reset()
         self.torque_enabled = enabled
+        self._update_damping()
 
     def set_gains(self, joint: str, gains: PidGains) -> None:
         """Use new PID gains on one joint (arm joint or gripper)."""
@@ -478,34 +685,48 @@ class ArmSimulator:
         return self.pids[self.names.index(joint)].gains
 
     def set_object_width(self, width: float) -> None:
-        """Put an object of this width [m] between the fingers (0 removes it)."""
+        """
+        Put a virtual object of this width [m] between the fingers (0 removes it).
+
+        Kept for the ``object_width`` parameter: the fingers stop at ``width / 2`` wherever the
+        arm is. Scene objects (``scene``) are real bodies grasped by contact instead.
+        """
         if self.linkage is None:
             if width:
                 raise InvalidInputError('this robot has no gripper to hold an object')
             return
         self.object_width = self.linkage.check_object_width(float(width))
-        self._object_angle = None
         half = 0.5 * self.object_width
-        if self.object_width > 0.0 and half > self.linkage.finger_lower:
-            self._object_angle = self.linkage.angle_from_finger(half)
-        if hasattr(self, 'g_theta'):
-            self._update_object_engagement()
+        self._object_half = half if self.object_width > 0.0 and \
+            half > self.linkage.finger_lower else None
+        self._object_engaged = False
+        self._set_finger_stop(None)
 
-    def _update_object_engagement(self) -> None:
-        # the object blocks the fingers only once they are outside it
-        self._object_engaged = (self._object_angle is not None
-                                and self.g_theta >= self._object_angle - 1e-9)
+    def _set_finger_stop(self, half: Optional[float]) -> None:
+        m = self.mj_model
+        left, right = self._finger_range
+        jl, jr = m.dof_jntid[self._fd[0]], m.dof_jntid[self._fd[1]]
+        m.jnt_range[jl] = left if half is None else (half, left[1])
+        m.jnt_range[jr] = right if half is None else (right[0], -half)
 
     def check(self, cmd: SetpointCommand) -> None:
         """
-        Raise if a parsed command violates limits (position, velocity, gripper effort).
+        Raise if a parsed command violates the joints' modes or limits.
 
         :raises JointLimitError: position outside the URDF limits (gripper: finger limits)
-        :raises InvalidInputError: velocity above the joint's limit; effort above stall
+        :raises InvalidInputError: a field that does not match the joint's mode; velocity above
+            the joint's limit; torque above stall; duty outside [-pwm_limit, pwm_limit]
         """
         tol = LIMIT_TOLERANCE
+        gripper = self.gripper_name
+        if cmd.positions:
+            check_modes(cmd.positions, 'position', gripper, self.modes)
+        elif cmd.velocities:
+            check_modes(cmd.velocities, 'velocity', gripper, self.modes)
+        if cmd.efforts:
+            check_modes(cmd.efforts, 'effort', gripper, self.modes)
         for name, value in cmd.positions.items():
-            if name == self.gripper_name:
+            if name == gripper:
                 lo, hi = self.gripper_lower, self.gripper_upper
             else:
                 i = self.names.index(name)
@@ -513,141 +734,166 @@ class ArmSimulator:
             if value < lo - tol or value > hi + tol:
                 raise JointLimitError(name, value, lo, hi)
         for name, value in cmd.velocities.items():
-            limit = (self.gripper_servo.velocity_limit if name == self.gripper_name
+            limit = (self.gripper_servo.velocity_limit if name == gripper
                      else self.vel_limit[self.names.index(name)])
             if abs(value) > limit * (1.0 + 1e-9) + 1e-12:
-                raise InvalidInputError(f"velocity feed-forward of '{name}' = {value:.6g} "
-                                        f'exceeds its limit {limit:.6g}')
+                raise InvalidInputError(f"velocity of '{name}' = {value:.6g} exceeds its "
+                                        f'limit {limit:.6g}')
         for name, value in cmd.efforts.items():
-            limit = self.gripper_servo.max_torque
-            if abs(value) > limit + 1e-12:
+            servo = self.gripper_servo if name == gripper else \
+                self.servos[self.names.index(name)]
+            if self.modes.get(name) == 'duty':
+                if abs(value) > servo.pwm_limit + 1e-12:
+                    raise InvalidInputError(f"duty of '{name}' = {value:.6g} is outside "
+                                            f'[-{servo.pwm_limit:g}, {servo.pwm_limit:g}]')
+            elif abs(value) > servo.max_torque + 1e-12:
                 raise InvalidInputError(f"effort of '{name}' = {value:.6g} N*m exceeds the "
-                                        f'servo maximum {limit:.6g} N*m')
+                                        f'servo maximum {servo.max_torque:.6g} N*m')
 
     def apply(self, cmd: SetpointCommand) -> None:
-        """Check a command against the limits and, only if all of it is valid, hold it."""
+        """Check a command against the modes and limits; only if all of it is valid, hold it."""
         self.check(cmd)
         for name, value in cmd.positions.items():
-            lo_hi_clip = value
             if name == self.gripper_name:
                 self.g_mode = 'position'
-                self.g_ref = min(max(lo_hi_clip, self.gripper_lower), self.gripper_upper)
+                self.g_ref = min(max(value, self.gripper_lower), self.gripper_upper)
                 self.g_ref_vel = cmd.velocities.get(name, 0.0)
                 continue
             i = self.names.index(name)
-            self.q_ref[i] = min(max(lo_hi_clip, self.lower[i]), self.upper[i])
+            self.q_ref[i] = min(max(value, self.lower[i]), self.upper[i])
             self.qd_ref[i] = cmd.velocities.get(name, 0.0)
             self.ff_until[i] = self.time + self.config.ff_timeout
+        if not cmd.positions:
+            for name, value in cmd.velocities.items():
+                if name == self.gripper_name:
+                    self.g_ref_vel = value
+                else:
+                    self.qd_ref[self.names.index(name)] = value
         for name, value in cmd.efforts.items():
-            self.g_mode = 'effort'
-            self.g_command = value
+            if name == self.gripper_name:
+                self.g_mode = 'effort'
+                self.g_command = value
+            else:
+                self.u_cmd[self.names.index(name)] = value
 
     def command(self, names, position=(), velocity=(), effort=()) -> SetpointCommand:
         """Parse, check and apply a JointState-like setpoint; return it (raises on bad input)."""
-        cmd = parse_setpoints(names, position, velocity, effort, self.command_joints,
-                              self.gripper_name)
+        cmd = self.parse(names, position, velocity, effort)
         self.apply(cmd)
         return cmd
 
     # --- physics -------------------------------------------------------------------------------
     def step(self) -> None:
         """Advance the simulation by one control period dt."""
-        dt = self.dt
+        m, d = self.mj_model, self.mj_data
+        dt = m.opt.timestep
         n = self.n
-        q, qd = self.q, self.qd
         on = self.torque_enabled
-        if self._step_count % self.config.dynamics_divider == 0 or self._M is None:
-            self._M, self._h = self.dynamics.evaluate_lists(q, qd)
-            self._factor = None
-        self._step_count += 1
-        factor = self._factor
-        if factor is None or factor[0] != on or factor[1] != dt:
-            # iteration matrix M + dt B (B: URDF damping + back-EMF while torque is on),
-            # factored once per dynamics refresh
-            damp = [self._damping[i] + (self.servos[i].back_emf_damping if on else 0.0)
-                    for i in range(n)]
-            A = [row[:] for row in self._M]
-            for i in range(n):
-                A[i][i] += dt * damp[i]
-            fric = [dt * self._friction[i] / A[i][i] for i in range(n)]
-            factor = self._factor = (on, dt, damp, _cholesky(A), fric)
-        damp, L, fric = factor[2], factor[3], factor[4]
-        h = self._h
+        q, qd = self.q, self.qd
         t = self.time
         drive = [0.0] * n
-        rhs = [0.0] * n
         if on:
+            modes = self.modes
             pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
             for i in range(n):
-                v_ref = qd_ref[i] if t < ff_until[i] else 0.0
-                u = pids[i].step(q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
+                mode = modes.get(self.names[i], 'position') if modes else 'position'
                 servo = self.servos[i]
-                stall, lim = servo.stall_torque, servo.pwm_limit
+                stall = servo.stall_torque
+                if mode == 'position':
+                    v_ref = qd_ref[i] if t < ff_until[i] else 0.0
+                    u = pids[i].step(q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
+                elif mode == 'velocity':
+                    u = self.velocity_pids[i].step(qd_ref[i] - qd[i], dt, 0.0, qd_ref[i])
+                elif mode == 'torque':
+                    # current control: the commanded torque within the supply's reach
+                    b = servo.back_emf_damping * qd[i]
+                    top = servo.max_torque
+                    u = self.u_cmd[i]
+                    drive[i] = min(max(u, -top - b), top - b)
+                    continue
+                else:
+                    u = self.u_cmd[i] * stall
+                lim = servo.pwm_limit
                 duty = u / stall
                 duty = lim if duty > lim else (-lim if duty < -lim else duty)
-                drive[i] = d = stall * duty
-                rhs[i] = d - h[i] - damp[i] * qd[i]
+                drive[i] = stall * duty
+        if self._contiguous:
+            self._qfrc[:n] = drive
         else:
-            for i in range(n):
-                rhs[i] = -h[i] - damp[i] * qd[i]
-        acc = _cholesky_solve(L, rhs)
-        new_q = [0.0] * n
-        effort = self.effort
-        lower, upper, vel_limit, viscous = self.lower, self.upper, self.vel_limit, self._damping
-        for i in range(n):
-            v = qd[i] + dt * acc[i]
-            # Coulomb friction: an impulse up to dt * friction, which may stop the joint
-            dv = fric[i]
-            v = v - dv if v > dv else (v + dv if v < -dv else 0.0)
-            if on:
-                vl = vel_limit[i]
-                v = vl if v > vl else (-vl if v < -vl else v)
-            x = q[i] + dt * v
-            if x < lower[i]:
-                x, v = lower[i], max(v, 0.0)
-            elif x > upper[i]:
-                x, v = upper[i], min(v, 0.0)
-            new_q[i] = x
-            qd[i] = v
-            effort[i] = drive[i] - (damp[i] - viscous[i]) * v if on else 0.0
-        self.q = new_q
+            self._qfrc[self._arm_dof] = drive
         if self.gripper_name:
-            self._step_gripper(dt, on)
+            self._gripper_force(dt, on)
+        mujoco.mj_step(m, d)
+        v = self._qvel[:n] if self._contiguous else None
+        if on:
+            if v is not None:
+                np.clip(v, -self._vlim, self._vlim, out=v)
+            else:
+                self._qvel[self._arm_dof] = np.clip(self._qvel[self._arm_dof], -self._vlim,
+                                                    self._vlim)
+        vel = self.qd
+        back = self._back_emf
+        self.effort = [drive[i] - back[i] * vel[i] for i in range(n)] if on else [0.0] * n
+        if self.gripper_name:
+            self._after_gripper_step(on)
         self.time = t + dt
 
-    def _step_gripper(self, dt: float, on: bool) -> None:
-        servo = self.gripper_servo
-        link = self.linkage
-        theta, omega = self.g_theta, self.g_omega
+    def _gripper_force(self, dt: float, on: bool) -> None:
+        m = self.mj_model
+        link, servo = self.linkage, self.gripper_servo
+        fq, fd = self._fq, self._fd
+        finger = float(self._qpos[fq[0]])
+        theta = link.angle_from_finger(min(max(finger, 1e-6), link.horn_radius
+                                           + link.arm_length - 1e-9))
         rate = link.finger_rate(theta)
-        J = servo.armature + self.gripper_inertia + 2.0 * self.finger_mass * rate * rate
-        b = self.gripper_damping
+        omega = float(self._qvel[fd[0]]) / rate
         drive = 0.0
+        b = self.gripper_damping
         if on:
+            mode = self.modes.get(self.gripper_name)
             if self.g_mode == 'effort':
-                u = self.g_command
+                u = self.g_command * servo.stall_torque if mode == 'duty' else self.g_command
+            elif self.g_mode == 'velocity':
+                u = self.gripper_velocity_pid.step(self.g_ref_vel - omega, dt, 0.0,
+                                                   self.g_ref_vel)
             else:
                 u = self.gripper_pid.step(self.g_ref - theta, dt, self.g_ref_vel - omega,
                                           self.g_ref_vel)
             drive = servo.stall_torque * servo.duty(u)
             b += servo.back_emf_damping
-        Jb = J + dt * b
-        v = omega + dt * (drive - b * omega) / Jb
-        dv = dt * self.gripper_friction / Jb
-        v = v - dv if v > dv else (v + dv if v < -dv else 0.0)
+        # horn torque, inertia, damping and friction reflected onto each finger slide
+        k = 0.5 / rate
+        force = drive * k
+        self._qfrc[fd[0]] = force
+        self._qfrc[fd[1]] = -force
+        arm = (servo.armature + self.gripper_inertia) * k / rate
+        damp = b * k / rate
+        fric = self.gripper_friction * k
+        for dof in fd:
+            m.dof_armature[dof] = arm
+            m.dof_damping[dof] = damp
+            m.dof_frictionloss[dof] = fric
+        self.g_effort = drive
+        self._g_rate = rate
+
+    def _after_gripper_step(self, on: bool) -> None:
+        fq, fd = self._fq, self._fd
+        rate = self._g_rate
         if on:
-            vl = servo.velocity_limit
-            v = vl if v > vl else (-vl if v < -vl else v)
-        x = theta + dt * v
-        lo = self._object_angle if self._object_engaged else self.gripper_lower
-        if x < lo:
-            x, v = lo, max(v, 0.0)
-        elif x > self.gripper_upper:
-            x, v = self.gripper_upper, min(v, 0.0)
-        self.g_theta, self.g_omega = x, v
-        self.g_effort = drive - servo.back_emf_damping * v if on else 0.0
-        if not self._object_engaged:
-            self._update_object_engagement()
+            vl = self.gripper_servo.velocity_limit * rate
+            for dof in fd:
+                v = self._qvel[dof]
+                if v > vl:
+                    self._qvel[dof] = vl
+                elif v < -vl:
+                    self._qvel[dof] = -vl
+            self.g_effort -= self.gripper_servo.back_emf_damping * float(self._qvel[fd[0]]) / rate
+        else:
+            self.g_effort = 0.0
+        if self._object_half is not None and not self._object_engaged and \
+                float(self._qpos[fq[0]]) >= self._object_half - 1e-9:
+            self._object_engaged = True
+            self._set_finger_stop(self._object_half)
 
     def advance(self, steps: int) -> None:
         """Run ``steps`` control periods."""
@@ -658,22 +904,23 @@ class ArmSimulator:
     def joint_state(self) -> JointStateSample:
         """Return the measured state in Interbotix order (arm, gripper, left, right finger)."""
         names = self.names
-        pos, vel, eff = list(self.q), list(self.qd), list(self.effort)
+        pos, vel, eff = self.q, self.qd, list(self.effort)
         if self.gripper_name:
-            d = self.linkage.finger_position(self.g_theta)
-            rate = self.linkage.finger_rate(self.g_theta)
+            d = float(self._qpos[self._fq[0]])
+            theta = self.linkage.angle_from_finger(d)
+            rate = self.linkage.finger_rate(theta)
+            ds = float(self._qvel[self._fd[0]])
             force = self.g_effort / (2.0 * rate) if rate > 1e-9 else 0.0
-            ds = rate * self.g_omega
             names = names + (self.gripper_name,) + self.finger_names
-            pos += [self.g_theta, d, -d]
-            vel += [self.g_omega, ds, -ds]
+            pos += [theta, d, -d]
+            vel += [ds / rate, ds, -ds]
             eff += [self.g_effort, force, -force]
         return JointStateSample(names, tuple(pos), tuple(vel), tuple(eff))
 
     @property
     def finger_position(self) -> float:
         """Return the left finger position [m] (nan without a gripper)."""
-        return self.linkage.finger_position(self.g_theta) if self.linkage else math.nan
+        return float(self._qpos[self._fq[0]]) if self.linkage else math.nan
 
     def ee_pose(self) -> np.ndarray:
         """Return the (4, 4) end-effector pose of the measured arm joints in the base frame."""
@@ -685,12 +932,8 @@ class ArmSimulator:
 
         Same pose as :meth:`ee_pose` (base frame), in plain floats for publishing at rate.
         """
-        R, p = self.dynamics.displacement_lists(self.q)
-        M = self._ee_home
-        Rm, pm = M[0], M[1]
-        Rt = [[sum(R[i][k] * Rm[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
-        pos = tuple(sum(R[i][k] * pm[k] for k in range(3)) + p[i] for i in range(3))
-        return pos, _quaternion_xyzw(Rt)
+        T = self.ee_pose()
+        return tuple(T[:3, 3].tolist()), _quaternion_xyzw(T[:3, :3].tolist())
 
     def positions(self) -> np.ndarray:
         """Return the measured arm joint values as an (n,) array [rad or m]."""
@@ -701,6 +944,96 @@ class ArmSimulator:
         return np.array(self.qd)
 
     def energy(self) -> float:
-        """Return the arm's kinetic + potential energy [J] (gripper excluded)."""
-        return (self.dynamics.kinetic_energy(self.q, self.qd)
-                + self.dynamics.potential_energy(self.q))
+        """Return the kinetic + potential energy of the whole MuJoCo model [J] (z = 0 datum)."""
+        mujoco.mj_forward(self.mj_model, self.mj_data)
+        return float(self.mj_data.energy[0] + self.mj_data.energy[1])
+
+    # --- scene -----------------------------------------------------------------------------------
+    def objects(self) -> List[ObjectInfo]:
+        """Return the bodies of the scene (table, fixtures, objects) in file order."""
+        if self.scene is None:
+            return []
+        return [ObjectInfo(b.name, b.kind, b.shape, tuple(b.size), tuple(b.rgba), b.mass)
+                for b in self.scene.bodies]
+
+    def object_poses(self) -> Dict[str, Tuple[Tuple[float, float, float],
+                                              Tuple[float, float, float, float]]]:
+        """Return {body: (position xyz [m], quaternion xyzw)} in the robot base frame."""
+        out = {}
+        qpos = self._qpos
+        for name, qadr, _ in self._object_adr:
+            x, y, z, w, a, b, c = qpos[qadr:qadr + 7].tolist()
+            norm = math.sqrt(w * w + a * a + b * b + c * c)
+            out[name] = ((x, y, z), (a / norm, b / norm, c / norm, w / norm))
+        if self.scene is not None:
+            for body in self.scene.statics:
+                out[body.name] = (tuple(body.position), tuple(body.quaternion_xyzw))
+        return out
+
+    def contacts(self) -> Dict[str, set]:
+        """Return {object: names of what touches it ('left_pad', 'right_pad', bodies)}."""
+        d = self.mj_data
+        out: Dict[str, set] = {}
+        pads = self.built.pad_geoms
+        labels = {pads[0]: 'left_pad', pads[1]: 'right_pad'} if len(pads) == 2 else {}
+        geom_object, statics = self._geom_object, self._static_geoms
+        for k in range(d.ncon):
+            con = d.contact[k]
+            g1, g2 = int(con.geom1), int(con.geom2)
+            for a, b in ((g1, g2), (g2, g1)):
+                obj = geom_object.get(a)
+                if obj is None:
+                    continue
+                if b in labels:
+                    other = labels[b]
+                elif b in geom_object:
+                    other = geom_object[b]
+                elif b in statics:
+                    other = 'static'
+                else:
+                    other = 'robot'
+                out.setdefault(obj, set()).add(other)
+        return out
+
+    def held_object(self) -> Optional[str]:
+        """Return the object touched by both finger pads and off its support, or None."""
+        mujoco.mj_forward(self.mj_model, self.mj_data)
+        for name, touching in sorted(self.contacts().items()):
+            if {'left_pad', 'right_pad'} <= touching and 'static' not in touching:
+                return name
+        return None
+
+
+def _wxyz(xyzw) -> List[float]:
+    x, y, z, w = xyzw
+    return [w, x, y, z]
+
+
+def _scaled(gains: PidGains, k: float) -> PidGains:
+    if k == 1.0:
+        return gains
+    return PidGains(p=gains.p * k, i=gains.i * k, d=gains.d * k, i_clamp=gains.i_clamp * k,
+                    u_clamp=gains.u_clamp * k, ff_velocity=gains.ff_velocity * k)
+
+
+def _horn_inertia(urdf_xml: Optional[str], gripper_joint: str) -> float:
+    """Return the inertia of the gripper horn link about the gripper axis [kg*m^2]."""
+    default = 1.2e-6
+    if not urdf_xml:
+        return default
+    from px100_control.models.urdf_chain import load_urdf
+    urdf = load_urdf(urdf_xml)
+    joints = {j.name: j for j in urdf.robot.joints}
+    links = {link.name: link for link in urdf.robot.links}
+    joint = joints.get(gripper_joint)
+    if joint is None or links.get(joint.child) is None or links[joint.child].inertial is None:
+        return default
+    inertial = links[joint.child].inertial
+    axis = np.array(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
+    axis /= np.linalg.norm(axis)
+    To = np.eye(4) if inertial.origin is None else np.array(inertial.origin)
+    I_c = np.zeros((3, 3)) if inertial.inertia is None else np.array(inertial.inertia, float)
+    R, c = To[:3, :3], To[:3, 3]
+    mass = float(inertial.mass or 0.0)
+    r_perp = c - (c @ axis) * axis
+    return float(axis @ R @ I_c @ R.T @ axis + mass * (r_perp @ r_perp))

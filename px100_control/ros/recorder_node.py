@@ -15,7 +15,9 @@ of their publishers (transient local for ``robot_description`` and ``trajectory/
 ``joint_states`` it also writes ``/tf`` (tf2_msgs/msg/TFMessage through the URDF: the recorded
 ``robot_description``, else the robot model's URDF with links prefixed ``<robot_name>/``) and,
 when no robot_description is published, the model's URDF on ``/<robot_name>/robot_description``,
-so Foxglove's 3D panel shows the arm. SIGINT and SIGTERM finalise the bag; after SIGKILL the
+so Foxglove's 3D panel shows the arm. From ``world/markers`` (the simulated scene) it writes the
+objects' frames to ``/tf``: ``<robot_name>/objects/<name>``, children of the markers' frame
+``<robot_name>/base_link``. SIGINT and SIGTERM finalise the bag; after SIGKILL the
 file is readable up to its last chunk (at most ``--flush-period`` s are lost) and
 ``bag_reindex`` rebuilds it.
 
@@ -43,6 +45,7 @@ from typing import Dict, List, Optional, Sequence
 from px100_control.bag import metadata as md
 from px100_control.bag.replay import resolve_topic
 from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
+from px100_control.bag.world import MARKER_ARRAY_TYPE, markers_from_decoded, object_tf_entries
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import read_robot_file
@@ -169,6 +172,8 @@ class RecorderNode(Node):
         self.write_description = bool(write_description)
         ns = f'/{self.robot_name}/' if self.robot_name else '/'
         self.js_topic = ns + 'joint_states'
+        self.markers_topic = ns + 'world/markers'
+        self._last_object_tf_ns = 0
         self.description_topic = ns + 'robot_description'
         self._subs: Dict[str, object] = {}
         self._skipped: Dict[str, str] = {}
@@ -278,6 +283,7 @@ class RecorderNode(Node):
     def _make_callback(self, topic: str):
         write = self.bag.write
         is_js = topic == self.js_topic
+        is_markers = topic == self.markers_topic
         is_description = topic == self.description_topic
         subs = self._subs
 
@@ -294,6 +300,8 @@ class RecorderNode(Node):
                 return False
             if is_js and self.write_tf:
                 self._joint_states_to_tf(data, t)
+            elif is_markers and self.write_tf:
+                self._markers_to_tf(data, t)
             elif is_description:
                 self._on_description(data)
             return True
@@ -385,6 +393,30 @@ class RecorderNode(Node):
         except BagError:
             return
         self._last_tf_ns = log_ns
+
+    def _markers_to_tf(self, data: bytes, log_ns: int) -> None:
+        """Write the objects' /tf frames of one world/markers MarkerArray (at most tf_rate)."""
+        if log_ns - self._last_object_tf_ns < self.tf_period_ns:
+            return
+        from rclpy.serialization import deserialize_message
+        cls = message_class(MARKER_ARRAY_TYPE)
+        try:
+            msg = deserialize_message(data, cls)
+        except Exception:  # a malformed message: recorded as is, no /tf from it
+            return
+        markers = markers_from_decoded(msg)
+        entries = object_tf_entries(markers, self.robot_name)
+        if not entries:
+            return
+        stamp = msg.markers[0].header.stamp
+        stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+        try:
+            if not self.bag.has_topic(TF_TOPIC):
+                self.bag.add_topic(TF_TOPIC, TF_TYPE, [TF_QOS])
+            self.bag.write(TF_TOPIC, encode_tf_message(entries, stamp_ns or log_ns), log_ns)
+        except BagError:
+            return
+        self._last_object_tf_ns = log_ns
 
     def _flush_tf_backlog(self, timeout_s: float = 5.0) -> None:
         """At close: wait (a little) for the URDF, then write /tf of the waiting joint states."""
@@ -487,6 +519,8 @@ class RecorderNode(Node):
                     break
                 if topic == self.js_topic and self.write_tf:
                     self._joint_states_to_tf(data, t)
+                elif topic == self.markers_topic and self.write_tf:
+                    self._markers_to_tf(data, t)
 
     @property
     def topics_recorded(self) -> List[str]:

@@ -11,7 +11,13 @@ A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
 - sub ``commands/joint_setpoints`` (sensor_msgs/JointState): position (+ optional velocity
   feed-forward) for any subset of joints, or effort [N*m] for the gripper alone; a refused
   message is logged and published on ``/diagnostics`` and nothing of it is applied;
-- services ``torque_enable`` (std_srvs/SetBool), ``reset`` (std_srvs/Trigger).
+- services ``torque_enable`` (std_srvs/SetBool), ``reset`` (std_srvs/Trigger: the arm to its
+  sleep pose and the scene's objects to their initial poses);
+- the world of the ``scene`` parameter: pub ``world/markers`` (visualization_msgs/MarkerArray,
+  transient local, ``world_rate``: one marker per body, poses in ``<robot_name>/base_link``),
+  pub ``world/held_object`` (std_msgs/String, transient local, on every change: the name of the
+  object between the fingers, '' for none), service ``world/reset`` (std_srvs/Trigger: objects
+  back to their initial poses, the arm untouched).
 
 Time. The physics runs at ``control_rate`` in fixed steps, advanced by the elapsed time in chunks
 (no dependence on timer precision):
@@ -31,6 +37,8 @@ Time. The physics runs at ``control_rate`` in fixed steps, advanced by the elaps
 Parameters (defaults in config/px100.yaml, validated live): ``publish_rate`` [Hz],
 ``control_rate`` [Hz], ``real_time_factor``, ``publish_clock``, ``clock_rate`` [Hz],
 ``dynamics_divider``, ``object_width`` [m] (an object between the fingers, 0 = none),
+``scene`` (a name in config/scenes, a path to a .yaml, '' = no objects; a bad one is refused
+with the loader's reason: at start the node exits non-zero), ``world_rate`` [Hz],
 ``gains_units`` (read-only: ``si`` or ``dynamixel``: p/i/d as Position P/I/D Gain registers),
 ``gains.<joint>.p|i|d|i_clamp|u_clamp|ff_velocity`` for every arm joint and the gripper.
 """
@@ -49,6 +57,7 @@ from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
                                       robot_name, robot_topic, spin_node)
+from px100_control.ros.world import WorldPublisher
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
@@ -75,7 +84,7 @@ CHUNK_BUDGET = 0.008
 MAX_PHYSICS_LOAD = 0.8
 
 _CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
-                'clock_rate', 'dynamics_divider', 'object_width', 'gains_units')
+                'clock_rate', 'dynamics_divider', 'object_width', 'gains_units', 'world_rate')
 
 
 def _time_msg(ns: int) -> TimeMsg:
@@ -105,6 +114,11 @@ class SimDriverNode(Node):
             description='re-evaluate the mass matrix and bias forces every k physics steps'))
         self.declare_parameter('object_width', 0.0, ParameterDescriptor(
             description='width of an object between the fingers [m], 0 = none'))
+        self.declare_parameter('world_rate', 30.0, ParameterDescriptor(
+            description='world/markers rate [Hz]'))
+        scene_name = self.declare_parameter('scene', 'pick_place', ParameterDescriptor(
+            description="scene: a name in config/scenes, a path to a .yaml, '' = no objects"
+        )).value
         units = self.declare_parameter('gains_units', 'si', ParameterDescriptor(
             description="'si' or 'dynamixel' (p/i/d as Position P/I/D Gain registers)",
             read_only=True)).value
@@ -117,7 +131,8 @@ class SimDriverNode(Node):
             raise Px100Error(error)
         self.sim = ArmSimulator(self.model, SimConfig(
             control_rate=float(p['control_rate']), dynamics_divider=int(p['dynamics_divider']),
-            object_width=float(p['object_width'])))
+            object_width=float(p['object_width'])),
+            scene=WorldPublisher.load(scene_name, self.model))
         self._gain_joints = list(self.sim.command_joints)
         for joint in self._gain_joints:
             base = self.sim.gains(joint)      # defaults scaled to the joint's servo
@@ -164,6 +179,10 @@ class SimDriverNode(Node):
                             callback_group=self._group)
         self.create_service(Trigger, robot_topic(self, 'reset'), self._on_reset,
                             callback_group=self._group)
+        self.world = WorldPublisher(self, self._base_frame, float(p['world_rate']))
+        self.create_service(Trigger, robot_topic(self, 'world/reset'), self._on_world_reset,
+                            callback_group=self._group)
+        self._pending_scene = None
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._publish_description()
@@ -247,7 +266,8 @@ class SimDriverNode(Node):
                     number('publish_rate', 0.1, 1000.0),
                     number('real_time_factor', 0.0, 1e6, allow_inf=True),
                     number('clock_rate', 1.0, 10000.0),
-                    number('object_width', 0.0, 10.0)):
+                    number('object_width', 0.0, 10.0),
+                    number('world_rate', 0.1, 1000.0)):
             if err:
                 return err
         if p['publish_rate'] > p['control_rate']:
@@ -278,6 +298,11 @@ class SimDriverNode(Node):
                 error = self._gains_error(joint, values)
                 if error:
                     return SetParametersResult(successful=False, reason=error)
+        if 'scene' in changed:
+            try:
+                self._pending_scene = WorldPublisher.load(changed['scene'], self.model)
+            except Px100Error as exc:
+                return SetParametersResult(successful=False, reason=f'scene: {exc}')
         core = [n for n in changed if n in _CORE_PARAMS]
         if core:
             p = {n: changed.get(n, self.get_parameter(n).value) for n in _CORE_PARAMS}
@@ -317,6 +342,16 @@ class SimDriverNode(Node):
                     self.get_logger().info(f'gains of {joint}: {self.sim.gains(joint)}')
             if 'object_width' in changed:
                 self.sim.set_object_width(float(changed['object_width']))
+            if 'world_rate' in changed:
+                self.world.rate = float(changed['world_rate'])
+            if 'scene' in changed:
+                scene, self._pending_scene = self._pending_scene, None
+                old = self.sim       # a new plant: the arm at its sleep pose, the same gains
+                self.sim = ArmSimulator(self.model, old.config, scene=scene, gains={
+                    joint: old.gains(joint) for joint in self._gain_joints})
+                self.world.publish_now(self.sim, self._stamp_now())
+                self.get_logger().info(f"scene {changed['scene']!r} loaded; the arm is at its "
+                                       'sleep pose, the objects at their initial poses')
             if 'dynamics_divider' in changed:
                 self.sim.config = _replace_config(self.sim.config,
                                                   dynamics_divider=int(
@@ -598,6 +633,7 @@ class SimDriverNode(Node):
         js.velocity = sample.velocity
         js.effort = sample.effort
         self.pub_js.publish(js)
+        self.world.tick(self.sim, stamp_ns)
         if not self.pub_ee.get_subscription_count():
             return          # forward kinematics only when someone listens
         pose = PoseStamped()
@@ -655,12 +691,29 @@ class SimDriverNode(Node):
         self.get_logger().info(f'{response.message} (all joints)')
         return response
 
+    def _stamp_now(self) -> int:
+        """Return the stamp [ns] of the current state (simulated time when owning the clock)."""
+        return self._sim_ns if self._master else self._start_ns + self._sim_ns
+
     def _on_reset(self, request, response):
         with self._lock:
             self._catch_up()
             self.sim.reset()
+            self.world.publish_now(self.sim, self._stamp_now())
         response.success = True
-        response.message = 'reset to the sleep pose'
+        response.message = ('reset to the sleep pose, objects to their initial poses'
+                            if self.world.has_objects else 'reset to the sleep pose')
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_world_reset(self, request, response):
+        with self._lock:
+            self._catch_up()
+            self.sim.reset_scene()
+            self.world.publish_now(self.sim, self._stamp_now())
+        response.success = True
+        response.message = ('objects back to their initial poses' if self.world.has_objects
+                            else 'no objects in this scene')
         self.get_logger().info(response.message)
         return response
 
@@ -671,10 +724,16 @@ def _replace_config(config: SimConfig, **changes) -> SimConfig:
 
 
 def main(args=None):
-    """Run the sim_driver node until SIGINT."""
-    return spin_node(lambda options: SimDriverNode(), args,
-                     description='Simulated PincherX-100 joint-state driver: rigid-body joint '
-                                 'dynamics, XL430 servo model and one PID loop per joint.')
+    """Run the sim_driver node until SIGINT; exit 1 with the reason when it cannot start."""
+    import sys
+    try:
+        return spin_node(lambda options: SimDriverNode(), args,
+                         description='Simulated PincherX-100 joint-state driver: MuJoCo physics, '
+                                     'XL430 servo model and one PID loop per joint, a scene of '
+                                     'objects.')
+    except Px100Error as exc:
+        print(f'sim_driver: error: {exc}', file=sys.stderr)
+        return 1
 
 
 if __name__ == '__main__':

@@ -196,7 +196,7 @@ def test_gripper_effort_and_object_grasp(spin_node, rclpy_context):
     time.sleep(0.3)
     js = probe.last_js()
     assert js.position[5] == pytest.approx(0.017, abs=1e-5)   # 34 mm object: fingers at 17 mm
-    assert js.velocity[4] == 0.0
+    assert js.velocity[4] == pytest.approx(0.0, abs=1e-6)
     assert js.effort[4] == pytest.approx(-0.4)                  # and the servo keeps squeezing
 
 

@@ -1,11 +1,10 @@
-"""Rigid-body dynamics of the arm: properties checked against independent derivations."""
+"""The oracle rigid-body dynamics (oracle_dynamics.py) against independent derivations."""
 import dataclasses
 
 import numpy as np
 from numpy.testing import assert_allclose
-from px100_control.control.dynamics import (chain_dynamics_from_urdf, dynamics_for_model,
-                                            lump_inertias, point_mass_dynamics,
-                                            spatial_inertia)
+from oracle_dynamics import (chain_dynamics_from_urdf, dynamics_for_model, lump_inertias,
+                             point_mass_dynamics, spatial_inertia)
 from px100_control.errors import RobotModelError
 from px100_control.models.registry import load_robot, model_from_spec
 import pytest

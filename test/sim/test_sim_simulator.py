@@ -105,7 +105,7 @@ def test_torque_off_makes_the_arm_fall(px100):
     assert sim.q[1] > 0.05 and sim.qd[1] > 0.3          # shoulder falling forward
     assert all(e == 0.0 for e in sim.effort)
     run(sim, 3.0)
-    assert sim.q[1] == pytest.approx(px100.upper[1])     # resting on the hard stop
+    assert sim.q[1] == pytest.approx(px100.upper[1], abs=1e-4)   # resting on the hard stop
     # torque back on: the servos hold where the arm is now
     sim.set_torque_enabled(True)
     held = list(sim.q)
@@ -182,14 +182,14 @@ def test_gripper_effort_opens_closes_and_grasps(px100):
     js = sim.joint_state()
     assert js.position[5] == pytest.approx(0.020, abs=1e-6)        # stopped by the object
     assert js.position[6] == pytest.approx(-0.020, abs=1e-6)
-    assert js.velocity[4] == 0.0
+    assert js.velocity[4] == pytest.approx(0.0, abs=1e-6)
     assert js.effort[4] == pytest.approx(-squeeze)                  # still squeezing
     assert js.effort[5] < -1.0                                      # finger force [N]
     # a small effort stays in the friction dead band (as the real PWM gripper)
     sim2 = ArmSimulator(px100)
     sim2.command(['gripper'], effort=[0.05])
     run(sim2, 0.5)
-    assert sim2.joint_state().position[4] == 0.0
+    assert sim2.joint_state().position[4] == pytest.approx(0.0, abs=1e-4)
 
 
 def test_gripper_position_control(px100):

@@ -1,5 +1,9 @@
 """
-Rigid-body dynamics of a serial arm: mass matrix, bias forces, forward and inverse dynamics.
+The test oracle: hand-written rigid-body dynamics of a serial arm (M, h, forward, inverse).
+
+Kept outside the package as an independent reference: test_sim_oracle.py compares MuJoCo's
+mass matrix and bias forces with it, and oracle_simulator.py (the PID + servo + these dynamics,
+semi-implicit Euler) is the exact step that benchmarks/bench_physics.py times side by side.
 
 The equations of motion are ``(M(q) + diag(armature)) qdd + h(q, qd) = tau`` with
 ``h = C(q, qd) qd + g(q)``. Everything is computed in the space (base) frame from the PoE screw

@@ -1,0 +1,94 @@
+"""
+The sim_driver's world surface: ``world/markers`` and ``world/held_object`` publishing.
+
+A thin adapter: the bodies come from ``ArmSimulator.objects()`` / ``object_poses()`` /
+``held_object()``, the marker fields from :func:`px100_control.bag.world.world_markers`, the
+messages from :mod:`px100_control.ros.world_msgs`. Both topics are transient local (a late
+subscriber gets the last state at once). ``world/markers`` follows ``world_rate`` in the
+driver's time (simulated time when it owns the clock); ``world/held_object`` is published when
+the held object changes (checked with every joint_states sample).
+"""
+from typing import List, Optional
+
+from builtin_interfaces.msg import Time as TimeMsg
+from px100_control.bag.world import world_markers
+from px100_control.ros.common import LATCHED_QOS, robot_topic
+from px100_control.ros.world_msgs import marker_array
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
+
+
+def _time_msg(ns: int) -> TimeMsg:
+    sec, nanosec = divmod(int(ns), 1_000_000_000)
+    return TimeMsg(sec=sec, nanosec=nanosec)
+
+
+class WorldPublisher:
+    """
+    Publish the world of a node's simulator.
+
+    :param node: the sim_driver node (topics through ``robot_topic``)
+    :param frame_id: the frame of the poses, ``'<robot_name>/base_link'``
+    :param rate: world/markers rate [Hz]
+    """
+
+    def __init__(self, node, frame_id: str, rate: float):
+        self.frame_id = frame_id
+        self.rate = float(rate)
+        self.pub_markers = node.create_publisher(MarkerArray, robot_topic(node, 'world/markers'),
+                                                 LATCHED_QOS)
+        self.pub_held = node.create_publisher(String, robot_topic(node, 'world/held_object'),
+                                              LATCHED_QOS)
+        self._objects: Optional[List] = None
+        self._next_ns: Optional[int] = None
+        self._held: Optional[str] = None
+        self.has_objects = False
+
+    @staticmethod
+    def load(scene: str, robot=None):
+        """
+        Return the Scene of a ``scene`` parameter value (None for '').
+
+        :param robot: the RobotModel whose reach every object must be in
+
+        :raises Px100Error: the loader's reason (unknown scene, bad field, overlap, ...)
+        """
+        from px100_control.errors import InvalidInputError
+        if not isinstance(scene, str):
+            raise InvalidInputError(f'scene must be a string (a name or a .yaml path), '
+                                    f'not {scene!r}')
+        if not scene.strip():
+            return None
+        from px100_control.sim.scene import load_scene
+        return load_scene(scene.strip(), robot=robot)
+
+    def _bodies(self, sim) -> List:
+        if self._objects is None:
+            self._objects = list(sim.objects())
+            self.has_objects = bool(self._objects)
+        return self._objects
+
+    def publish_now(self, sim, stamp_ns: int) -> None:
+        """Publish markers and the held object now (after a reset or a scene change)."""
+        self._objects = None
+        self._next_ns = None
+        self._held = None
+        self.tick(sim, stamp_ns)
+
+    def tick(self, sim, stamp_ns: int) -> None:
+        """Publish what is due at stamp_ns [ns] (called with every joint_states sample)."""
+        bodies = self._bodies(sim)
+        if self._next_ns is None or stamp_ns >= self._next_ns or \
+                stamp_ns < self._next_ns - 2e9 / self.rate:       # the clock went back
+            stamp = _time_msg(stamp_ns)
+            self.pub_markers.publish(marker_array(
+                world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
+                stamp))
+            period = int(round(1e9 / self.rate))
+            self._next_ns = (stamp_ns + period if self._next_ns is None
+                             or abs(stamp_ns - self._next_ns) > period
+                             else self._next_ns + period)
+        held = (sim.held_object() if bodies else None) or ''
+        if held != self._held:
+            self._held = held
+            self.pub_held.publish(String(data=held))

@@ -1,0 +1,26 @@
+"""
+The MuJoCo world of the simulated arm: scenes as files and the MuJoCo model built from the URDF.
+
+- :mod:`.scene`: ``load_scene(name_or_path, robot=None) -> Scene`` (config/scenes/<name>.yaml,
+  default ``pick_place``; bad files raise InvalidInputError naming the field);
+- :mod:`.mjcf`: ``build_model(robot, scene)``: the MjModel (URDF + generated collision
+  geometry, finger pads, contact settings, scene bodies).
+
+The simulator that runs it is :class:`px100_control.control.simulator.ArmSimulator`. Usage
+(robot base frame, SI units, quaternions x, y, z, w)::
+
+    from px100_control.control.simulator import ArmSimulator
+    from px100_control.models.registry import load_robot
+    from px100_control.sim.scene import load_scene
+
+    robot = load_robot('px100')
+    sim = ArmSimulator(robot, scene=load_scene('pick_place', robot))   # scene=None: no objects
+    sim.objects()        # [ObjectInfo(name, kind 'object'|'fixture'|'table', shape, size, rgba,
+                         #  mass)], file order
+    sim.object_poses()   # {name: ((x, y, z) [m], (qx, qy, qz, qw))}, statics included
+    sim.step()           # one control period (1 / control_rate s); or sim.advance(steps)
+    sim.held_object()    # the object both finger pads touch and no static body does, or None
+    sim.reset_scene()    # objects back to their initial poses (arm untouched)
+    sim.reset()          # arm to sleep, torque on, and the objects back
+    sim.set_mode('waist', 'velocity')   # 'position' | 'velocity' | 'torque' | 'duty'
+"""

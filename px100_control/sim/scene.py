@@ -1,0 +1,328 @@
+"""
+Scenes as files: a table, static fixtures and movable objects around the robot.
+
+A scene is a YAML file ``config/scenes/<name>.yaml`` (see ``config/scenes/pick_place.yaml``)::
+
+    name: pick_place
+    table: {size: [0.60, 0.70, 0.03], position: [0.15, 0.0, -0.015], rgba: [...]}
+    fixtures:                      # static bodies (pedestals, walls of a box with a hole)
+      - {name: pedestal, shape: cylinder, size: [0.025, 0.04], position: [...]}
+    objects:                       # movable bodies, grasped by contact only
+      - {name: red_cube, shape: box, size: [0.028, 0.028, 0.028], mass: 0.03,
+         friction: 1.0, rgba: [0.85, 0.15, 0.15, 1.0], position: [0.17, -0.05, 0.014],
+         rpy: [0.0, 0.0, 0.0]}
+
+Frames and units: positions are body centres in the ROBOT BASE frame [m], ``rpy`` roll, pitch,
+yaw [rad] (fixed axes x, y, z); sizes [m]: box = full x, y, z extents, cylinder = radius,
+height (axis along the body's z), sphere = radius; mass [kg]; friction = sliding coefficient;
+rgba 4 floats in 0..1. ``table`` is optional and is always a box.
+
+:func:`load_scene` validates everything and raises
+:class:`~px100_control.errors.InvalidInputError` naming the file and field: unknown keys,
+missing or non-numeric values, NaN/inf, non-positive sizes or masses, duplicate names,
+overlapping bodies (bounding boxes, 0.1 mm tolerance so resting contact is allowed), and, with
+``robot`` given, objects out of the robot's reach (:func:`check_reach`).
+"""
+from dataclasses import dataclass
+import functools
+import math
+import os
+import re
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+from px100_control.errors import InvalidInputError
+from px100_control.paths import data_path
+import yaml
+
+SHAPES = {'box': 3, 'cylinder': 2, 'sphere': 1}    # shape -> number of size values
+KINDS = ('object', 'fixture', 'table')
+DEFAULT_SCENE = 'pick_place'
+#: touching bodies may interpenetrate this much [m] before they count as overlapping
+OVERLAP_TOLERANCE = 1e-4
+_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
+_BODY_KEYS = {'name', 'shape', 'size', 'mass', 'friction', 'rgba', 'position', 'rpy'}
+_TOP_KEYS = {'name', 'description', 'table', 'fixtures', 'objects'}
+_DEFAULT_RGBA = {'object': (0.8, 0.3, 0.2, 1.0), 'fixture': (0.45, 0.45, 0.5, 1.0),
+                 'table': (0.76, 0.65, 0.5, 1.0)}
+
+
+@dataclass(frozen=True)
+class SceneBody:
+    """
+    One body of a scene (see the module docstring for frames and units).
+
+    :param kind: 'object' (movable), 'fixture' (static) or 'table' (static box)
+    :param size: box (x, y, z) full extents; cylinder (radius, height); sphere (radius,) [m]
+    :param mass: [kg] (objects; static bodies keep 0)
+    :param position: centre in the robot base frame [m]; rpy: orientation [rad]
+    """
+
+    name: str
+    kind: str
+    shape: str
+    size: Tuple[float, ...]
+    mass: float
+    friction: float
+    rgba: Tuple[float, float, float, float]
+    position: Tuple[float, float, float]
+    rpy: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def quaternion_xyzw(self) -> Tuple[float, float, float, float]:
+        """Return the initial orientation as a unit quaternion (x, y, z, w)."""
+        return rpy_to_quaternion_xyzw(self.rpy)
+
+    def half_extents(self) -> np.ndarray:
+        """Return the half extents (3,) of the body's axis-aligned bounding box [m]."""
+        if self.shape == 'box':
+            local = 0.5 * np.array(self.size)
+        elif self.shape == 'cylinder':
+            local = np.array([self.size[0], self.size[0], 0.5 * self.size[1]])
+        else:
+            return np.full(3, self.size[0])
+        R = rpy_matrix(self.rpy)
+        return np.abs(R) @ local
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene: name, source path, and its bodies (table, fixtures, objects)."""
+
+    name: str
+    path: str
+    bodies: Tuple[SceneBody, ...]
+    description: str = ''
+
+    @property
+    def objects(self) -> Tuple[SceneBody, ...]:
+        """Return the movable bodies."""
+        return tuple(b for b in self.bodies if b.kind == 'object')
+
+    @property
+    def statics(self) -> Tuple[SceneBody, ...]:
+        """Return the table and the fixtures."""
+        return tuple(b for b in self.bodies if b.kind != 'object')
+
+    def body(self, name: str) -> SceneBody:
+        """Return the body called ``name``; raise InvalidInputError if there is none."""
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise InvalidInputError(f"scene '{self.name}' has no body '{name}' (bodies: "
+                                f"{', '.join(b.name for b in self.bodies)})")
+
+
+def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
+    """Return R = Rz(yaw) Ry(pitch) Rx(roll) (3, 3) of roll, pitch, yaw [rad]."""
+    r, p, y = (float(a) for a in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), \
+        math.cos(y), math.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def rpy_to_quaternion_xyzw(rpy: Sequence[float]) -> Tuple[float, float, float, float]:
+    """Return the unit quaternion (x, y, z, w) of roll, pitch, yaw [rad] (fixed x, y, z)."""
+    r, p, y = (0.5 * float(a) for a in rpy)
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), \
+        math.cos(y), math.sin(y)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+def scenes_dir() -> str:
+    """Return the folder of scene files."""
+    return data_path('config', 'scenes')
+
+
+def available_scenes():
+    """Return the names of the scene files in :func:`scenes_dir`."""
+    folder = scenes_dir()
+    if not os.path.isdir(folder):
+        return []
+    return sorted(f[:-5] for f in os.listdir(folder) if f.endswith('.yaml'))
+
+
+def scene_path(name_or_path: str) -> str:
+    """
+    Return the file of a scene given by name (config/scenes/<name>.yaml) or path.
+
+    :raises InvalidInputError: no such file
+    """
+    text = str(name_or_path)
+    if text.endswith(('.yaml', '.yml')) or os.sep in text:
+        path = text
+    else:
+        path = os.path.join(scenes_dir(), text + '.yaml')
+    if not os.path.isfile(path):
+        raise InvalidInputError(f"unknown scene '{text}': no file {path} (available: "
+                                f"{', '.join(available_scenes()) or 'none'})")
+    return path
+
+
+def _numbers(where: str, value, count: Optional[int] = None) -> Tuple[float, ...]:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value]
+    if not isinstance(value, (list, tuple)):
+        raise InvalidInputError(f'{where} must be a list of numbers, not {value!r}')
+    out = []
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise InvalidInputError(f'{where} must be numbers, not {value!r}')
+        if not math.isfinite(float(v)):
+            raise InvalidInputError(f'{where} contains NaN or inf: {value!r}')
+        out.append(float(v))
+    if count is not None and len(out) != count:
+        raise InvalidInputError(f'{where} needs {count} values, got {len(out)}: {value!r}')
+    return tuple(out)
+
+
+def _body(where: str, raw, kind: str) -> SceneBody:
+    if not isinstance(raw, dict):
+        raise InvalidInputError(f'{where} must be a mapping, not {raw!r}')
+    unknown = sorted(set(raw) - _BODY_KEYS)
+    if unknown:
+        raise InvalidInputError(f'{where}: unknown key(s) {unknown} (allowed: '
+                                f'{sorted(_BODY_KEYS)})')
+    name = raw.get('name', 'table' if kind == 'table' else None)
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise InvalidInputError(f'{where}.name must be an identifier (letters, digits, _), '
+                                f'not {name!r}')
+    where = f'{where} ({name})'
+    shape = raw.get('shape', 'box')
+    if shape not in SHAPES or (kind == 'table' and shape != 'box'):
+        allowed = ['box'] if kind == 'table' else list(SHAPES)
+        raise InvalidInputError(f'{where}.shape must be one of {allowed}, not {shape!r}')
+    if 'size' not in raw:
+        raise InvalidInputError(f'{where}.size is missing')
+    size = _numbers(f'{where}.size', raw['size'], SHAPES[shape])
+    if any(s <= 0.0 for s in size):
+        raise InvalidInputError(f'{where}.size must be positive, not {list(size)}')
+    if kind == 'object':
+        if 'mass' not in raw:
+            raise InvalidInputError(f'{where}.mass is missing')
+        mass = _numbers(f'{where}.mass', raw['mass'], 1)[0]
+        if mass <= 0.0:
+            raise InvalidInputError(f'{where}.mass must be positive, not {mass}')
+    elif 'mass' in raw:
+        raise InvalidInputError(f'{where}.mass: a {kind} is static and has no mass')
+    else:
+        mass = 0.0
+    friction = _numbers(f'{where}.friction', raw.get('friction', 1.0), 1)[0]
+    if friction <= 0.0:
+        raise InvalidInputError(f'{where}.friction must be positive, not {friction}')
+    rgba = _numbers(f'{where}.rgba', raw.get('rgba', _DEFAULT_RGBA[kind]), 4)
+    if any(c < 0.0 or c > 1.0 for c in rgba):
+        raise InvalidInputError(f'{where}.rgba values must be in 0..1, not {list(rgba)}')
+    if 'position' not in raw:
+        raise InvalidInputError(f'{where}.position is missing')
+    position = _numbers(f'{where}.position', raw['position'], 3)
+    rpy = _numbers(f'{where}.rpy', raw.get('rpy', (0.0, 0.0, 0.0)), 3)
+    return SceneBody(name, kind, shape, size, mass, friction, rgba, position, rpy)
+
+
+def _check_overlaps(label: str, bodies: Sequence[SceneBody]) -> None:
+    boxes = [(b, np.array(b.position), b.half_extents()) for b in bodies]
+    for i, (a, pa, ha) in enumerate(boxes):
+        for b, pb, hb in boxes[i + 1:]:
+            if a.kind != 'object' and b.kind != 'object':
+                continue        # static parts may touch or interlock (walls on a table)
+            depth = (ha + hb) - np.abs(pa - pb)
+            if np.all(depth > OVERLAP_TOLERANCE):
+                raise InvalidInputError(
+                    f"{label}: bodies '{a.name}' and '{b.name}' overlap (bounding boxes "
+                    f'interpenetrate by {1000 * float(depth.min()):.1f} mm); move '
+                    f"'{b.name if b.kind == 'object' else a.name}'.position")
+
+
+def parse_scene(data, path: str = '<scene>', robot=None) -> Scene:
+    """
+    Return the Scene of already-parsed YAML data (see :func:`load_scene`).
+
+    :raises InvalidInputError: naming the field that is wrong
+    """
+    label = os.path.basename(path)
+    if not isinstance(data, dict):
+        raise InvalidInputError(f'{label}: a scene file must be a mapping, not {type(data)}')
+    unknown = sorted(set(data) - _TOP_KEYS)
+    if unknown:
+        raise InvalidInputError(f'{label}: unknown key(s) {unknown} (allowed: '
+                                f'{sorted(_TOP_KEYS)})')
+    name = data.get('name', os.path.splitext(label)[0])
+    if not isinstance(name, str) or not name:
+        raise InvalidInputError(f'{label}: name must be a string, not {name!r}')
+    bodies = []
+    if data.get('table') is not None:
+        bodies.append(_body(f'{label}: table', data['table'], 'table'))
+    for key, kind in (('fixtures', 'fixture'), ('objects', 'object')):
+        items = data.get(key) or []
+        if not isinstance(items, list):
+            raise InvalidInputError(f'{label}: {key} must be a list, not {items!r}')
+        for i, raw in enumerate(items):
+            bodies.append(_body(f'{label}: {key}[{i}]', raw, kind))
+    seen = set()
+    for b in bodies:
+        if b.name in seen:
+            raise InvalidInputError(f"{label}: duplicate body name '{b.name}'")
+        seen.add(b.name)
+    _check_overlaps(label, bodies)
+    scene = Scene(name=name, path=path, bodies=tuple(bodies),
+                  description=str(data.get('description', '')))
+    if robot is not None:
+        check_reach(scene, robot)
+    return scene
+
+
+def load_scene(name_or_path: str, robot=None) -> Scene:
+    """
+    Return the validated Scene of a name in config/scenes or a path to a .yaml file.
+
+    :param robot: a RobotModel; if given, every object must be within its reach
+    :raises InvalidInputError: unknown file, unreadable YAML, or a bad field (named)
+    """
+    path = scene_path(name_or_path)
+    try:
+        with open(path, encoding='utf-8') as f:
+            data = yaml.safe_load(f)
+    except yaml.YAMLError as exc:
+        raise InvalidInputError(f'{path}: not valid YAML ({exc})') from exc
+    return parse_scene(data, path, robot)
+
+
+@functools.lru_cache(maxsize=32)
+def _workspace(model) -> np.ndarray:
+    """Return (k, 3) end-effector positions of random in-limit configurations (cached)."""
+    from px100_control.kinematics.iterative import chain, fk_batch
+    return fk_batch(chain(model), model.random_configurations(4000, rng=7))[:, :3, 3]
+
+
+def reach_margin(model, position: Sequence[float], band: float = 0.04) -> float:
+    """
+    Return how far [m] a point lies inside (+) or outside (-) the robot's horizontal reach.
+
+    The reach at a height is the largest horizontal distance from the base z axis of sampled
+    end-effector positions within ``band`` [m] of that height (4000 random in-limit poses).
+    """
+    ws = _workspace(model)
+    near = ws[np.abs(ws[:, 2] - float(position[2])) < band]
+    if near.size == 0:
+        return -math.inf
+    reach = float(np.max(np.hypot(near[:, 0], near[:, 1])))
+    return reach - math.hypot(float(position[0]), float(position[1]))
+
+
+def check_reach(scene: Scene, model, margin: float = 0.01) -> None:
+    """
+    Raise InvalidInputError if an object of the scene is out of the robot's reach.
+
+    :param margin: [m] an object's centre must lie this far inside the reach
+    """
+    for b in scene.objects:
+        m = reach_margin(model, b.position)
+        if m < margin:
+            raise InvalidInputError(
+                f"scene '{scene.name}': object '{b.name}'.position {list(b.position)} is out "
+                f"of reach of robot '{model.name}' ({-m * 1000:.0f} mm beyond its reach at "
+                f'that height, margin {margin * 1000:.0f} mm)')

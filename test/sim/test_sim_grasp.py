@@ -1,0 +1,245 @@
+"""
+Grasps by contact in the MuJoCo world (engine level, no ROS), the scene API and control modes.
+
+A pick: open, go above the object, descend with the tool pointing down (pitch pi/2), squeeze
+with a gripper effort, lift, swing the waist 90 degrees in 1.5 s. The object moves only
+because the finger pads squeeze it with friction.
+"""
+import dataclasses
+import math
+
+import numpy as np
+from px100_control.control.simulator import ArmSimulator
+from px100_control.errors import InvalidInputError
+from px100_control.kinematics.solve import solve_ik
+from px100_control.models.registry import load_robot
+from px100_control.sim.scene import load_scene, rpy_matrix
+import pytest
+
+STRONG, WEAK = -0.4, -0.25        # gripper efforts [N*m] (250 and 158 PWM)
+
+
+@pytest.fixture(scope='module')
+def px100():
+    return load_robot('px100')
+
+
+@pytest.fixture(scope='module')
+def scene(px100):
+    return load_scene('pick_place', px100)
+
+
+def _ik(sim, p, pitch=math.pi / 2):
+    T = np.eye(4)
+    T[:3, :3] = rpy_matrix((0.0, pitch, math.atan2(p[1], p[0])))
+    T[:3, 3] = p
+    result = solve_ik(sim.model, T, mode='pitch', q_seed=sim.positions())
+    assert result.success, result.reason
+    return result.q
+
+
+def _move(sim, q1, duration):
+    """Minimum-jerk joint move, setpoints at 200 Hz with velocity feed-forward, then settle."""
+    q0 = sim.positions()
+    names = list(sim.names)
+    for k in range(int(duration / sim.dt) + 200):
+        if k % 5 == 0:
+            s = min(k * sim.dt / duration, 1.0)
+            b = 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
+            bd = (30 * s ** 2 - 60 * s ** 3 + 30 * s ** 4) / duration
+            sim.command(names, list(q0 + b * (q1 - q0)), list(bd * (q1 - q0)))
+        sim.step()
+
+
+def _grip(sim, effort, seconds):
+    sim.command(['gripper'], effort=[effort])
+    sim.advance(int(seconds / sim.dt))
+
+
+def _in_tool(sim, name):
+    T = sim.ee_pose()
+    return T[:3, :3].T @ (np.array(sim.object_poses()[name][0]) - T[:3, 3])
+
+
+def _pick(sim, name, squeeze=STRONG, offset=(0.0, 0.0, 0.0), close_time=2.5):
+    """Pick ``name`` (offset [m] added to the grasp point); return the object's p before."""
+    p0 = np.array(sim.object_poses()[name][0])
+    _grip(sim, 0.4, 1.5)
+    _move(sim, _ik(sim, p0 + [0.0, 0.0, 0.06]), 1.5)
+    _move(sim, _ik(sim, p0 + np.asarray(offset)), 1.0)
+    _grip(sim, squeeze, close_time)
+    _move(sim, _ik(sim, p0 + [0.0, 0.0, 0.06]), 1.0)
+    return p0
+
+
+def _swing(sim):
+    q1 = sim.positions()
+    q1[0] += math.pi / 2
+    _move(sim, q1, 1.5)
+
+
+def _finger_axis(p):
+    az = math.atan2(p[1], p[0])
+    return np.array([-math.sin(az), math.cos(az), 0.0])
+
+
+@pytest.mark.parametrize('name', ['red_cube', 'green_cube', 'blue_cylinder'])
+def test_good_grasp_holds_through_a_fast_swing(px100, scene, name):
+    """Centred grasp, 250 PWM: lifted, held through a 90 deg waist swing in 1.5 s, slip < 2 mm."""
+    sim = ArmSimulator(px100, scene=scene)
+    p0 = _pick(sim, name)
+    assert sim.held_object() == name
+    assert sim.object_poses()[name][0][2] > p0[2] + 0.05           # lifted 6 cm with the tool
+    before = _in_tool(sim, name)
+    _swing(sim)
+    assert sim.held_object() == name
+    slip = float(np.linalg.norm(_in_tool(sim, name) - before))
+    print(f'{name}: slip during the swing {slip * 1000:.2f} mm')
+    assert slip < 0.002
+    others = [o.name for o in scene.objects if o.name != name]
+    for other in others:                                           # nothing else moved
+        np.testing.assert_allclose(sim.object_poses()[other][0], scene.body(other).position,
+                                   atol=1e-4)
+
+
+def test_off_centre_weak_grasp_fails(px100, scene):
+    """12 mm off centre along the fingers, 158 PWM: one pad pushes the cube, nothing lifts it."""
+    sim = ArmSimulator(px100, scene=scene)
+    p0 = np.array(scene.body('red_cube').position)
+    _pick(sim, 'red_cube', WEAK, 0.012 * _finger_axis(p0))
+    assert sim.held_object() is None
+    p = np.array(sim.object_poses()['red_cube'][0])
+    assert p[2] == pytest.approx(p0[2], abs=1e-3)                  # still on the table
+    assert np.linalg.norm(p[:2] - p0[:2]) > 0.003                  # pushed by one pad
+
+
+def test_off_centre_strong_grasp_centres_the_cube(px100, scene):
+    """The same 12 mm offset with 250 PWM: the closing pads centre the cube and lift it."""
+    sim = ArmSimulator(px100, scene=scene)
+    p0 = np.array(scene.body('red_cube').position)
+    _pick(sim, 'red_cube', STRONG, 0.012 * _finger_axis(p0))
+    assert sim.held_object() == 'red_cube'
+
+
+def test_closing_on_air_holds_nothing(px100, scene):
+    """Closing 5 cm beside every object: nothing held, every object where it was."""
+    sim = ArmSimulator(px100, scene=scene)
+    p0 = np.array(scene.body('green_cube').position)
+    _pick(sim, 'green_cube', STRONG, (-0.06, 0.0, 0.0))
+    assert sim.held_object() is None
+    assert sim.finger_position == pytest.approx(sim.linkage.finger_lower, abs=2e-4)
+    for body in scene.objects:
+        np.testing.assert_allclose(sim.object_poses()[body.name][0], body.position, atol=1e-4)
+    assert p0[2] > 0
+
+
+def test_same_commands_give_identical_object_poses(px100, scene):
+    """
+    Determinism: the same scene and commands stepped twice -> bit-identical object poses.
+
+    The second run also reads held_object(), energy() and object_poses() every 33 steps, as a
+    node publishing the world does: reading never changes the motion.
+    """
+    results = []
+    for probe in (False, True):
+        sim = ArmSimulator(px100, scene=scene)
+        if probe:
+            plain_step, count = sim.step, [0]
+
+            def step():
+                plain_step()
+                count[0] += 1
+                if count[0] % 33 == 0:
+                    sim.held_object(), sim.energy(), sim.object_poses()
+            sim.step = step
+        _pick(sim, 'red_cube')
+        _swing(sim)
+        _grip(sim, 0.4, 1.0)                   # let go in mid-air: the cube falls and lands
+        sim.advance(1000)
+        results.append(sim.object_poses())
+    assert results[0] == results[1]
+    assert results[0]['red_cube'][0][2] < 0.05                    # it fell
+
+
+def test_scene_api_and_resets(px100, scene):
+    """objects(), object_poses() in the base frame, reset() and reset_scene()."""
+    sim = ArmSimulator(px100, scene=scene)
+    infos = {o.name: o for o in sim.objects()}
+    assert set(infos) == {b.name for b in scene.bodies}
+    cube = infos['red_cube']
+    expected = ('object', 'box', (0.028, 0.028, 0.028), 0.03)
+    assert (cube.kind, cube.shape, cube.size, cube.mass) == expected
+    assert infos['table'].kind == 'table' and infos['pedestal'].kind == 'fixture'
+    poses = sim.object_poses()
+    assert set(poses) == set(infos)
+    pos, quat = poses['red_cube']
+    np.testing.assert_allclose(pos, scene.body('red_cube').position, atol=1e-4)
+    np.testing.assert_allclose(quat, scene.body('red_cube').quaternion_xyzw, atol=1e-6)
+    _pick(sim, 'red_cube')
+    assert sim.held_object() == 'red_cube'
+    q_arm = sim.positions()
+    sim.reset_scene()                                      # objects back, the arm untouched
+    np.testing.assert_allclose(sim.positions(), q_arm)
+    np.testing.assert_allclose(sim.object_poses()['red_cube'][0],
+                               scene.body('red_cube').position, atol=1e-9)
+    _grip(sim, 0.4, 0.5)
+    sim.reset()                                            # arm to sleep and objects back
+    np.testing.assert_allclose(sim.positions(), px100.sleep)
+    np.testing.assert_allclose(sim.object_poses()['red_cube'][0],
+                               scene.body('red_cube').position, atol=1e-9)
+    sim.advance(500)
+    for body in scene.objects:                             # they rest where they were put
+        np.testing.assert_allclose(sim.object_poses()[body.name][0], body.position, atol=1e-4)
+    assert ArmSimulator(px100).objects() == [] and ArmSimulator(px100).held_object() is None
+
+
+def test_scene_out_of_reach_is_refused_by_the_simulator(px100, scene):
+    """A scene whose objects the robot cannot reach is refused when the simulator is built."""
+    far = dataclasses.replace(scene, bodies=tuple(
+        dataclasses.replace(b, position=(0.6, 0.0, b.position[2])) if b.name == 'red_cube'
+        else b for b in scene.bodies))
+    with pytest.raises(InvalidInputError, match="'red_cube'.position.*out of reach"):
+        ArmSimulator(px100, scene=far)
+
+
+def test_control_modes(px100):
+    """Velocity, torque and duty modes drive the joint; a mismatched field is refused."""
+    sim = ArmSimulator(px100)
+    sim.command(['waist', 'shoulder', 'elbow', 'wrist_angle'], [0.0, 0.0, 0.0, 0.0])
+    sim.advance(2000)
+    sim.set_mode('waist', 'velocity')
+    assert sim.mode('waist') == 'velocity' and sim.mode('elbow') == 'position'
+    with pytest.raises(InvalidInputError, match="'waist' is in velocity mode"):
+        sim.command(['waist'], [0.5])
+    with pytest.raises(InvalidInputError, match="'elbow' is in position mode"):
+        sim.command(['elbow'], velocity=[0.5])
+    with pytest.raises(InvalidInputError, match='exceeds its limit'):
+        sim.command(['waist'], velocity=[10.0])
+    sim.command(['waist'], velocity=[0.5])
+    sim.advance(1000)
+    assert sim.qd[0] == pytest.approx(0.5, abs=0.02)
+    with pytest.raises(InvalidInputError, match='unknown control mode'):
+        sim.set_mode('waist', 'current')
+    # torque mode with 0 N*m: the shoulder falls; holding torque = the gravity torque holds it
+    sim.set_mode('shoulder', 'torque')
+    with pytest.raises(InvalidInputError, match='exceeds the servo maximum'):
+        sim.command(['shoulder'], effort=[3.0])
+    sim.advance(100)
+    assert sim.qd[1] > 0.05
+    sim.set_mode('shoulder', 'position')
+    sim.command(['shoulder'], [0.0])
+    sim.advance(2000)
+    sim.set_mode('shoulder', 'torque')
+    g = float(sim.dynamics.gravity_torque(sim.q)[1])
+    sim.command(['shoulder'], effort=[g])
+    sim.advance(300)
+    assert abs(sim.qd[1]) < 0.05
+    # duty mode: a duty in [-1, 1], outside refused
+    sim.set_mode('elbow', 'duty')
+    with pytest.raises(InvalidInputError, match='duty'):
+        sim.command(['elbow'], effort=[1.5])
+    with pytest.raises(InvalidInputError, match="'elbow' is in duty mode"):
+        sim.command(['elbow'], [0.1])
+    sim.command(['elbow'], effort=[-0.6])
+    sim.advance(200)
+    assert sim.qd[2] < -0.5
