@@ -225,7 +225,7 @@ class ViewerState:
         bodies = apply_markers(self.bodies, markers)
         if bodies != self.bodies:
             self.bodies = bodies
-            self._bump('world')
+            self._bump('world', 'status')
 
     def set_held(self, name: str) -> None:
         """Set the held body's name (world/held_object), '' for none."""
@@ -279,6 +279,7 @@ class ViewerState:
         if self.robot_error:
             lines.append(f'robot: {self.robot_error}')
         lines.append(f'trajectory: {self.goal_status or "no goal yet"}')
+        lines.append(f'world: {len(self.bodies)} bodies')
         lines.append(f'holding: {self.held or "nothing"}')
         lines.append(f'last error: {self.last_error or "none"}')
         if self.note:

@@ -3,17 +3,37 @@ import os
 import sys
 
 import pytest
-from viewer_support import canvas_pixels, dark_pixels, open_page, PORT_BASE, wait_http
+from viewer_support import canvas_pixels, dark_pixels, open_page, PORT_BASE, wait_for, \
+    wait_http
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'bag'))
 
 
-def test_bringup_viewer_option_serves_the_page(node_process):
-    """``bringup --viewer`` serves the page from the same process as the robot's nodes."""
+def test_bringup_viewer_option_serves_the_page_with_the_scene(browser, node_process, spin_node,
+                                                              rclpy_context):
+    """``bringup --viewer`` serves the page; it shows sim_driver's scene (world/markers)."""
+    from rclpy.node import Node
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from visualization_msgs.msg import MarkerArray
     port = PORT_BASE + 5
     proc = node_process('bringup', '--viewer', '--ros-args', '-p', f'port:={port}')
+    counts = []
+    listener = Node('viewer_scene_listener', context=rclpy_context)
+    listener.create_subscription(
+        MarkerArray, '/px100/world/markers', lambda m: counts.append(len(m.markers)),
+        QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                   reliability=ReliabilityPolicy.RELIABLE))
+    spin_node(listener)
     assert wait_http(f'http://127.0.0.1:{port}', 90.0), proc.output()[-2000:]
+    assert wait_for(lambda: counts, 30.0), 'sim_driver publishes no world/markers'
+    assert counts[-1] > 0, 'the default scene has no bodies'
+    page = open_page(browser, f'http://127.0.0.1:{port}')
+    try:
+        page.wait_for_function('(t) => document.body.innerText.includes(t)',
+                               arg=f'world: {counts[-1]} bodies', timeout=20000)
+    finally:
+        page.close()
     assert proc.alive()
 
 
@@ -94,3 +114,27 @@ def test_other_host_is_read_only_unless_asked(rclpy_context):
     with pytest.raises(ValueError, match='rate must be within 1..60'):
         ViewerNode(context=rclpy_context, parameter_overrides=[
             Parameter('rate', value=500.0), Parameter('port', value=PORT_BASE + 9)])
+
+
+def test_read_only_viewer_shows_a_replayed_bag(browser, node_process, tmp_path):
+    """``replay BAG`` into the graph: a read-only viewer draws the recorded run live."""
+    from bag_support import write_run_bag
+    bag = str(tmp_path / 'run')
+    write_run_bag(bag, seconds=2.0)
+    port = PORT_BASE + 3
+    node_process('viewer', '--ros-args', '-p', f'port:={port}', '-p', 'read_only:=true')
+    assert wait_http(f'http://127.0.0.1:{port}', 60.0)
+    node_process('replay', bag, '--loop')
+    page = open_page(browser, f'http://127.0.0.1:{port}')      # waits for joint_states
+    try:
+        # the recorded stamps (1.7e9 s) reach the page, and they advance
+        page.wait_for_function("() => document.body.innerText.includes('state t = 17000000')",
+                               timeout=45000)
+        first = page.inner_text('body')
+        page.wait_for_function(
+            '(b) => document.body.innerText.match(/state t = [0-9.]+/)[0] !== '
+            'b.match(/state t = [0-9.]+/)[0]', arg=first, timeout=20000)
+        assert page.locator('[role=slider]').count() == 0
+        assert dark_pixels(canvas_pixels(page)) > 3000
+    finally:
+        page.close()

@@ -144,7 +144,7 @@ def canvas_pixels(page) -> np.ndarray:
     import io
 
     from PIL import Image
-    png = page.screenshot(clip=CANVAS_CLIP)
+    png = page.screenshot(clip=CANVAS_CLIP, timeout=90000)
     return np.asarray(Image.open(io.BytesIO(png)).convert('RGB'))
 
 
