@@ -437,8 +437,12 @@ def main(argv=None) -> int:
     parser.add_argument('--real-time-factor', type=float, default=None,
                         help='simulation speed (default 1; env PX100_REAL_TIME_FACTOR); < 1 '
                              'slows the simulation down on a slow machine')
+    parser.add_argument('--viewer', action='store_true',
+                        help='watch it live in the browser: http://127.0.0.1:8080')
     args = parser.parse_args(argv)
     os.environ.setdefault('MPLBACKEND', 'Agg')
+    if args.viewer:
+        os.environ['PX100_VIEWER'] = '1'      # the in-process bringup adds the viewer node
 
     from px100_control.bag.world import format_placements, placement_verdict
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
