@@ -387,6 +387,48 @@ class Demo:
         return ok and self.line('Approach Place', APPROACH_HEIGHT)
 
 
+#: distance [m] of an open finger pad's centre from the grasp point, along the closing direction
+OPEN_PAD = 0.036
+
+
+def footprint_radius(info) -> float:
+    """Return the radius [m] of a body's horizontal footprint (box: half its diagonal)."""
+    sx, sy = info.scale[0], info.scale[1]
+    return 0.5 * (float(np.hypot(sx, sy)) if info.shape == 'box' else float(sx))
+
+
+def clearance(name: str, bodies: dict) -> float:
+    """
+    Return how much room [m] the open fingers have around ``name``: the smallest distance from
+    an open pad's centre to another object's footprint.
+
+    The fingers close along the horizontal direction perpendicular to the object's bearing from
+    the base (the px100 has no wrist rotation), so an object with a neighbour on that line can
+    only be picked once the neighbour is gone. ``bodies``: name -> WorldMarker of the objects.
+    """
+    p = np.array(bodies[name].position[:2])
+    u = np.array([-p[1], p[0]]) / max(1e-9, float(np.hypot(*p)))
+    room = math.inf
+    for side in (1.0, -1.0):
+        pad = p + side * OPEN_PAD * u
+        for other, info in bodies.items():
+            if other != name:
+                room = min(room, float(np.hypot(*(pad - info.position[:2])))
+                           - footprint_radius(info))
+    return room
+
+
+def pick_order(world, names) -> list:
+    """
+    Return ``names`` in the order to pick them: each time the one whose fingers have the most room.
+
+    Reads the objects' current poses; placed objects are assumed at their targets later on,
+    so the order is planned again before every pick (see main).
+    """
+    bodies = {n: world.get_object_info(n) for n in world.list_objects()}
+    return sorted(names, key=lambda n: -clearance(n, bodies))
+
+
 def parse_targets(text: str) -> dict:
     """Return {name: (x, y[, z])} [m] of 'name:x,y[,z] name:x,y' (command line)."""
     out = {}
@@ -494,7 +536,11 @@ def main(argv=None) -> int:
                 for n in names}
         trace.phase('Home')
         bot.arm.go_to_home_pose(moving_time=max(1.5, args.moving_time))
-        for name in names:
+        remaining = list(names)
+        while remaining:     # the object with the most room for the open fingers first
+            bot.world.wait_for_update(0.5)
+            name = pick_order(bot.world, remaining)[0]
+            remaining.remove(name)
             demo.move_object(name, goal[name])
         trace.phase('Sleep')
         bot.gripper.release(delay=0.2)
