@@ -415,6 +415,9 @@ class ArmSimulator:
         self.velocity_pids = [Pid(_scaled(DEFAULT_VELOCITY_GAINS, s.stall_torque / 1.4))
                               for s in self.servos]
         self.modes: Dict[str, str] = {}
+        self._mode_list = ['position'] * self.n
+        self._servo_consts = [(s.stall_torque, s.pwm_limit, s.back_emf_damping, s.max_torque)
+                              for s in self.servos]
         # gripper
         gripper_spec = model.gripper
         self.gripper_name = gripper_spec.joint if gripper_spec is not None else None
@@ -571,6 +574,7 @@ class ArmSimulator:
             self.gripper_velocity_pid.reset()
             return
         i = self.names.index(joint)
+        self._mode_list[i] = mode
         self.q_ref[i] = self.q[i]
         self.qd_ref[i] = 0.0
         self.ff_until[i] = -math.inf
@@ -793,12 +797,9 @@ class ArmSimulator:
         t = self.time
         drive = [0.0] * n
         if on:
-            modes = self.modes
             pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
-            for i in range(n):
-                mode = modes.get(self.names[i], 'position') if modes else 'position'
-                servo = self.servos[i]
-                stall = servo.stall_torque
+            for i, mode in enumerate(self._mode_list):
+                stall, lim, back, top = self._servo_consts[i]
                 if mode == 'position':
                     v_ref = qd_ref[i] if t < ff_until[i] else 0.0
                     u = pids[i].step(q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
@@ -806,14 +807,12 @@ class ArmSimulator:
                     u = self.velocity_pids[i].step(qd_ref[i] - qd[i], dt, 0.0, qd_ref[i])
                 elif mode == 'torque':
                     # current control: the commanded torque within the supply's reach
-                    b = servo.back_emf_damping * qd[i]
-                    top = servo.max_torque
+                    b = back * qd[i]
                     u = self.u_cmd[i]
                     drive[i] = min(max(u, -top - b), top - b)
                     continue
                 else:
                     u = self.u_cmd[i] * stall
-                lim = servo.pwm_limit
                 duty = u / stall
                 duty = lim if duty > lim else (-lim if duty < -lim else duty)
                 drive[i] = stall * duty
@@ -831,9 +830,11 @@ class ArmSimulator:
             else:
                 self._qvel[self._arm_dof] = np.clip(self._qvel[self._arm_dof], -self._vlim,
                                                     self._vlim)
-        vel = self.qd
-        back = self._back_emf
-        self.effort = [drive[i] - back[i] * vel[i] for i in range(n)] if on else [0.0] * n
+        if on:
+            vel = self._qvel[:n].tolist() if self._contiguous else self.qd
+            self.effort = [x - b * v for x, b, v in zip(drive, self._back_emf, vel)]
+        else:
+            self.effort = [0.0] * n
         if self.gripper_name:
             self._after_gripper_step(on)
         self.time = t + dt
@@ -869,10 +870,16 @@ class ArmSimulator:
         arm = (servo.armature + self.gripper_inertia) * k / rate
         damp = b * k / rate
         fric = self.gripper_friction * k
-        for dof in fd:
-            m.dof_armature[dof] = arm
-            m.dof_damping[dof] = damp
-            m.dof_frictionloss[dof] = fric
+        a, z = fd[0], fd[1] + 1
+        if z - a == 2:
+            m.dof_armature[a:z] = arm
+            m.dof_damping[a:z] = damp
+            m.dof_frictionloss[a:z] = fric
+        else:
+            for dof in fd:
+                m.dof_armature[dof] = arm
+                m.dof_damping[dof] = damp
+                m.dof_frictionloss[dof] = fric
         self.g_effort = drive
         self._g_rate = rate
 
@@ -882,7 +889,7 @@ class ArmSimulator:
         if on:
             vl = self.gripper_servo.velocity_limit * rate
             for dof in fd:
-                v = self._qvel[dof]
+                v = float(self._qvel[dof])
                 if v > vl:
                     self._qvel[dof] = vl
                 elif v < -vl:

@@ -111,7 +111,7 @@ class SimDriverNode(Node):
         self.declare_parameter('clock_rate', 250.0, ParameterDescriptor(
             description='/clock rate in simulated time [Hz]'))
         self.declare_parameter('dynamics_divider', 4, ParameterDescriptor(
-            description='re-evaluate the mass matrix and bias forces every k physics steps'))
+            description='ignored, kept for compatibility (MuJoCo evaluates every step)'))
         self.declare_parameter('object_width', 0.0, ParameterDescriptor(
             description='width of an object between the fingers [m], 0 = none'))
         self.declare_parameter('world_rate', 30.0, ParameterDescriptor(
