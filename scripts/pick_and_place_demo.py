@@ -399,10 +399,10 @@ def footprint_radius(info) -> float:
 
 def clearance(name: str, bodies: dict) -> float:
     """
-    Return how much room [m] the open fingers have around ``name``: the smallest distance from
-    an open pad's centre to another object's footprint.
+    Return the room [m] the open fingers have around ``name``.
 
-    The fingers close along the horizontal direction perpendicular to the object's bearing from
+    That is the smallest distance from an open pad's centre to another object's footprint. The
+    fingers close along the horizontal direction perpendicular to the object's bearing from
     the base (the px100 has no wrist rotation), so an object with a neighbour on that line can
     only be picked once the neighbour is gone. ``bodies``: name -> WorldMarker of the objects.
     """
