@@ -336,14 +336,29 @@ class Demo:
                 moving_time=max(0.8, self.mt))
         return self.move(label, line)
 
+    def retreat(self, xyz, pitch) -> bool:
+        """Go back up to the approach pose above xyz [m] (straight up, else joint space)."""
+        if abs(self.bot.arm.get_ee_pose_command()[2, 3] - (xyz[2] + APPROACH_HEIGHT)) < 1e-3:
+            return True
+        return self.line('Approach', xyz[2] + APPROACH_HEIGHT
+                         - self.bot.arm.get_ee_pose_command()[2, 3]) or \
+            self.goto('Approach', xyz, pitch, APPROACH_HEIGHT)
+
     def wait_gripper_still(self) -> None:
-        """Wait (simulated time) until the fingers stopped closing: on the object, or shut."""
+        """
+        Wait (simulated time) until the fingers stopped closing: on the object, or shut.
+
+        Still = the finger gap changed less than GRIPPER_STILL in each of three fresh 0.1 s
+        samples (joint_states younger than 0.1 s: a stalled simulation does not look still).
+        """
         g, core = self.bot.gripper, self.bot.core
-        last = g.get_finger_width()
+        last, still = g.get_finger_width(), 0
         for _ in range(int(GRASP_TIMEOUT / 0.1)):
             core.sleep(0.1)
             width = g.get_finger_width()
-            if abs(width - last) < GRIPPER_STILL:
+            fresh = core.joint_state_age() < 0.1
+            still = still + 1 if fresh and abs(width - last) < GRIPPER_STILL else 0
+            if still >= 3:
                 return
             last = width
 
@@ -370,9 +385,12 @@ class Demo:
         g = self.bot.gripper
         self.trace.phase('open')
         g.release(delay=0.3)
-        ok = self.goto('Approach Pick', grasp, p_pitch, APPROACH_HEIGHT) and \
-            self.line('Pick', -APPROACH_HEIGHT)
-        if not ok:
+        if not self.goto('Approach Pick', grasp, p_pitch, APPROACH_HEIGHT):
+            return False
+        if not self.line('Pick', -APPROACH_HEIGHT):
+            # blocked on the way down (e.g. a finger on a neighbour): back up before going on,
+            # never sweep low through the scene to the next object
+            self.retreat(grasp, p_pitch)
             return False
         self.trace.phase('grasp')
         g.grasp(delay=0.3)
@@ -384,7 +402,8 @@ class Demo:
             self.line('Place', -APPROACH_HEIGHT)
         self.trace.phase('release')
         g.release(delay=0.5)
-        return ok and self.line('Approach Place', APPROACH_HEIGHT)
+        # back up whatever happened before (a Place that stopped short still releases)
+        return self.retreat(place, d_pitch) and ok
 
 
 #: distance [m] of an open finger pad's centre from the grasp point, along the closing direction
@@ -541,7 +560,13 @@ def main(argv=None) -> int:
             bot.world.wait_for_update(0.5)
             name = pick_order(bot.world, remaining)[0]
             remaining.remove(name)
-            demo.move_object(name, goal[name])
+            if not demo.move_object(name, goal[name]):
+                # a move failed (on a loaded machine: the simulation stalled and a move was
+                # aborted): if the object is still where it was, try it once more
+                at = bot.world.get_object_pose(name)[:3, 3]
+                if np.linalg.norm(at - start[name]) < 0.005:
+                    print(f'  {name}: still at its start, trying once more')
+                    demo.move_object(name, goal[name])
         trace.phase('Sleep')
         bot.gripper.release(delay=0.2)
         bot.arm.go_to_sleep_pose(moving_time=max(1.5, args.moving_time), accel_time=0.3)
