@@ -6,7 +6,8 @@ A thin adapter: the bodies come from ``ArmSimulator.objects()`` / ``object_poses
 messages from :mod:`px100_control.ros.world_msgs`. Both topics are transient local (a late
 subscriber gets the last state at once). ``world/markers`` follows ``world_rate`` in the
 driver's time (simulated time when it owns the clock); ``world/held_object`` is published when
-the held object changes (checked with every joint_states sample).
+the held object changes (checked at the same rate: the contact query costs about as much as a
+physics step).
 """
 from typing import List, Optional
 
@@ -78,16 +79,16 @@ class WorldPublisher:
     def tick(self, sim, stamp_ns: int) -> None:
         """Publish what is due at stamp_ns [ns] (called with every joint_states sample)."""
         bodies = self._bodies(sim)
-        if self._next_ns is None or stamp_ns >= self._next_ns or \
-                stamp_ns < self._next_ns - 2e9 / self.rate:       # the clock went back
-            stamp = _time_msg(stamp_ns)
-            self.pub_markers.publish(marker_array(
-                world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
-                stamp))
-            period = int(round(1e9 / self.rate))
-            self._next_ns = (stamp_ns + period if self._next_ns is None
-                             or abs(stamp_ns - self._next_ns) > period
-                             else self._next_ns + period)
+        if not (self._next_ns is None or stamp_ns >= self._next_ns or
+                stamp_ns < self._next_ns - 2e9 / self.rate):      # (the clock went back)
+            return
+        self.pub_markers.publish(marker_array(
+            world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
+            _time_msg(stamp_ns)))
+        period = int(round(1e9 / self.rate))
+        self._next_ns = (stamp_ns + period if self._next_ns is None
+                         or abs(stamp_ns - self._next_ns) > period
+                         else self._next_ns + period)
         held = (sim.held_object() if bodies else None) or ''
         if held != self._held:
             self._held = held
