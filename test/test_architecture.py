@@ -1,8 +1,8 @@
 """
 The architecture, checked on the source with ast (so it also holds on a machine without ROS).
 
-- The pure layers (wire, kinematics, models, control, sim, bag, viewer) import no rclpy, *_msgs package
-  or builtin_interfaces.
+- The pure layers (wire, kinematics, models, control, sim, bag, viewer) import no rclpy, *_msgs
+  package or builtin_interfaces.
 - Layer order, lowest first: errors/paths, wire, kinematics, models, then control / sim / bag /
   viewer / tools, then ros, then client. A module imports only from its own layer or lower ones.
 - No import cycles between modules.

@@ -30,8 +30,10 @@ from action_msgs.msg import GoalStatusArray
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from px100_control.ros.common import declare_robot_parameters, frame_id, LATCHED_QOS, \
-    robot_name, robot_topic
+from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS, parse_cli,
+                                      robot_name, robot_topic, spin_node)
+from px100_control.viewer.bag_view import serve_bag
+from px100_control.viewer.scene import ViewerScene
 from px100_control.viewer.state import GOAL_STATUS_NAMES, stamp_seconds, Throttle, \
     ViewerState
 from rcl_interfaces.msg import ParameterDescriptor
@@ -105,7 +107,6 @@ class ViewerNode(Node):
         self._goal_ids = {}
         arm = [(n, float(lo), float(hi)) for n, lo, hi in
                zip(self.model.joint_names, self.model.lower, self.model.upper)]
-        from px100_control.viewer.scene import ViewerScene
         self.scene = ViewerScene(host=str(host), port=int(port), read_only=self.read_only,
                                  arm_joints=arm, actions=self._on_action,
                                  title=f'{robot_name(self) or self.model.name} viewer')
@@ -352,12 +353,10 @@ def _add_arguments(parser) -> None:
 
 def main(args=None) -> int:
     """Run the viewer (``ros2 run px100_control viewer``), or play a bag with ``--bag``."""
-    from px100_control.ros.common import parse_cli, spin_node
     description = ('Serve a live 3D page of the robot (http://127.0.0.1:8080) with joint '
                    'sliders, an end-effector gizmo and buttons, or play a bag with --bag.')
     options, _ = parse_cli(description, args, _add_arguments)
     if options.bag:
-        from px100_control.viewer.bag_view import serve_bag
         return serve_bag(options.bag, host=options.host, port=options.port)
     return spin_node(lambda opts: ViewerNode(), args, description, _add_arguments)
 

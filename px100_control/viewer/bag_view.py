@@ -13,6 +13,7 @@ from typing import List, Optional, Tuple
 
 from px100_control.bag.reader import BagReader
 from px100_control.errors import BagError
+from px100_control.viewer.scene import ViewerScene
 from px100_control.viewer.state import ViewerState
 
 
@@ -132,7 +133,6 @@ def serve_bag(path: str, host: str = '127.0.0.1', port: int = 8080,
     except BagError as exc:
         print(f'viewer: {exc}', file=sys.stderr)
         return 1
-    from px100_control.viewer.scene import ViewerScene
     scene = ViewerScene(host=host, port=port, read_only=True,
                         title=f'{timeline.namespace or "bag"}: {path}')
     state = ViewerState()
