@@ -25,6 +25,9 @@ def _time_msg(ns: int) -> TimeMsg:
     sec, nanosec = divmod(int(ns), 1_000_000_000)
     return TimeMsg(sec=sec, nanosec=nanosec)
 
+#: the ``scene`` value that picks the robot file's own scene
+AUTO_SCENE = 'auto'
+
 
 class WorldPublisher:
     """
@@ -52,6 +55,9 @@ class WorldPublisher:
         """
         Return the Scene of a ``scene`` parameter value (None for '').
 
+        ``'auto'`` takes the robot file's ``scene`` key (none when it has no such key): the
+        default scene is laid out for the px100's reach and would stand in other arms' way.
+
         :param robot: the RobotModel whose reach every object must be in
 
         :raises Px100Error: the loader's reason (unknown scene, bad field, overlap, ...)
@@ -59,9 +65,12 @@ class WorldPublisher:
         if not isinstance(scene, str):
             raise InvalidInputError(f'scene must be a string (a name or a .yaml path), '
                                     f'not {scene!r}')
-        if not scene.strip():
+        scene = scene.strip()
+        if scene == AUTO_SCENE:
+            scene = str(((getattr(robot, 'extra', None) or {}).get('scene')) or '')
+        if not scene:
             return None
-        return load_scene(scene.strip(), robot=robot)
+        return load_scene(scene, robot=robot)
 
     def _bodies(self, sim) -> List:
         if self._objects is None:
