@@ -25,6 +25,7 @@ def _time_msg(ns: int) -> TimeMsg:
     sec, nanosec = divmod(int(ns), 1_000_000_000)
     return TimeMsg(sec=sec, nanosec=nanosec)
 
+
 #: the ``scene`` value that picks the robot file's own scene
 AUTO_SCENE = 'auto'
 
