@@ -80,6 +80,7 @@ def _go_home(watcher):
 def test_page_connects_and_shows_the_arm_and_world(page, graph):
     """The page connects, draws the arm (dark links) and the MarkerArray world (colours)."""
     watcher, _ = graph
+    watcher.publish_world()              # again, as a world publisher does at its rate
     for text in ('holding: nothing', 'world: 4 bodies'):
         page.wait_for_function('(t) => document.body.innerText.includes(t)', arg=text,
                                timeout=45000)
