@@ -80,6 +80,7 @@ def _go_home(watcher):
 def test_page_connects_and_shows_the_arm_and_world(page, graph):
     """The page connects, draws the arm (dark links) and the MarkerArray world (colours)."""
     watcher, _ = graph
+    watcher.publish_world()              # again, as a world publisher does at its rate
     for text in ('holding: nothing', 'world: 4 bodies'):
         page.wait_for_function('(t) => document.body.innerText.includes(t)', arg=text,
                                timeout=45000)
@@ -206,3 +207,25 @@ def test_closed_tab_and_dead_viewer_never_stop_the_graph(browser, graph):
     watcher.joints = {}
     assert wait_for(lambda: watcher.position('waist') is not None, 5.0)
     assert time.monotonic() - t0 < 5.0
+
+
+def test_buttons_act_through_the_ros_interfaces(page, graph):
+    """Sleep sends a goal; Close/Open gripper move the fingers; torque and scene reset answer."""
+    watcher, _ = graph
+    page.get_by_role('button', name='Sleep').click()
+    assert wait_for(lambda: abs(watcher.position('shoulder') + 1.88) < 0.05, 20.0), \
+        f'shoulder {watcher.position("shoulder"):.3f} did not reach the sleep pose'
+    finger0 = watcher.position('left_finger')
+    page.get_by_role('button', name='Close gripper').click()
+    assert wait_for(lambda: watcher.position('left_finger') < finger0 - 0.003, 15.0), \
+        f"left_finger {watcher.position('left_finger'):.4f} m, was {finger0:.4f} m"
+    closed = watcher.position('left_finger')
+    page.get_by_role('button', name='Open gripper').click()
+    assert wait_for(lambda: watcher.position('left_finger') > closed + 0.005, 15.0), \
+        f"left_finger {watcher.position('left_finger'):.4f} m, closed {closed:.4f} m"
+    for name, text in (('Torque off', 'viewer: torque off: done'),
+                       ('Torque on', 'viewer: torque on: done'),
+                       ('Reset scene', 'scene reset: done')):
+        page.get_by_role('button', name=name).click()
+        page.wait_for_function('(t) => document.body.innerText.includes(t)', arg=text,
+                               timeout=45000)
