@@ -329,7 +329,47 @@ def _ets_from_poe(model):
     return ets
 
 
-def _rtb_rows(model, targets):
+def _ets_from_table(model):
+    """
+    Return a roboticstoolbox ETS of a model given by a DH / modified DH table, or None.
+
+    Standard DH per joint: Rz(q + theta) Tz(d) Tx(a) Rx(alpha); modified: Rx(alpha) Tx(a)
+    Rz(q + theta) Tz(d) (prismatic: Tz(q + d)); then the table's tool transform.
+    """
+    import roboticstoolbox as rtb
+    from spatialmath import SE3
+    kin = (model.extra or {}).get('kinematics') or {}
+    joints = kin.get('joints') or []
+    if kin.get('convention') not in ('dh', 'mdh') or len(joints) != model.dof or kin.get('base'):
+        return None
+    ets = rtb.ETS()
+    for i, (j, lo, hi, kind) in enumerate(zip(joints, model.lower, model.upper,
+                                              model.joint_types)):
+        a, alpha = float(j.get('a', 0.0)), float(j.get('alpha', 0.0))
+        d, theta = float(j.get('d', 0.0)), float(j.get('theta', 0.0))
+        lim = [float(lo), float(hi)]
+        if kin['convention'] == 'mdh':
+            ets *= rtb.ET.Rx(alpha) * rtb.ET.tx(a)
+        if kind == 'prismatic':
+            ets *= rtb.ET.Rz(theta) * rtb.ET.tz(d) * rtb.ET.tz(jindex=i, qlim=lim)
+        else:
+            ets *= rtb.ET.Rz(jindex=i, qlim=lim) * rtb.ET.Rz(theta) * rtb.ET.tz(d)
+        if kin['convention'] == 'dh':
+            ets *= rtb.ET.tx(a) * rtb.ET.Rx(alpha)
+    tool = kin.get('tool')
+    if tool:
+        from px100_control.models.registry import _matrix
+        ets *= rtb.ET.SE3(SE3(_matrix(tool), check=False))
+    return ets
+
+
+def rtb_solver(model):
+    """
+    Return (solve(T) -> q or None, source) with tuned roboticstoolbox ``ik_LM``, or (None, why).
+
+    The peer's model is built from the robot's DH table, its kinematics table, or its
+    axis-aligned PoE, and checked against our FK (1e-9) at 20 configurations.
+    """
     import roboticstoolbox as rtb
     table = (model.extra.get('alternative_models') or {}).get('dh')
     if table is not None:
@@ -347,18 +387,27 @@ def _rtb_rows(model, targets):
         ets = _ets_from_poe(model)
         source = f'ETS built from the PoE model of {model.name}.yaml'
         if ets is None:
-            return [{'name': 'roboticstoolbox ik_LM',
-                     'skipped': 'no DH table and no axis-aligned PoE for this robot'}]
+            ets = _ets_from_table(model)
+            source = f'ETS built from the kinematics table of {model.name}.yaml'
+        if ets is None:
+            return None, 'no DH table and no axis-aligned PoE for this robot'
     rng = np.random.default_rng(1)
     for q in model.random_configurations(20, rng):        # the peer's model must be ours
         if np.abs(ets.fkine(q).A - model.fk(q)).max() > 1e-9:
-            return [{'name': 'roboticstoolbox ik_LM', 'skipped': 'ETS does not match the FK'}]
+            return None, 'ETS does not match the FK'
     q0 = np.zeros(model.dof)
 
     def solve(T):
         sol = ets.ik_LM(T, q0=q0, ilimit=30, slimit=100, tol=1e-10, joint_limits=True,
                         method='chan', k=1.0)
         return sol.q if sol.success else None
+    return solve, source
+
+
+def _rtb_rows(model, targets):
+    solve, source = rtb_solver(model)
+    if solve is None:
+        return [{'name': 'roboticstoolbox ik_LM', 'skipped': source}]
     return [_measure("roboticstoolbox ETS.ik_LM (C++, method='chan', tuned)", model, targets,
                      solve, note=f'{source}; ilimit 30, slimit 100, tol 1e-10, joint limits')]
 

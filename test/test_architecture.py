@@ -1,8 +1,14 @@
 """
-The pure layers import no ROS.
+The architecture, checked on the source with ast (so it also holds on a machine without ROS).
 
-models, kinematics, control, sim and bag must not import rclpy, any *_msgs package or
-builtin_interfaces (checked on the source with ast, so it also holds on a machine without ROS).
+- The pure layers (wire, kinematics, models, control, sim, bag) import no rclpy, *_msgs package
+  or builtin_interfaces.
+- Layer order, lowest first: errors/paths, wire, kinematics, models, then control / sim / bag /
+  tools, then ros, then client. A module imports only from its own layer or lower ones.
+- No import cycles between modules.
+- Project imports sit at the top of a module; one inside a function must say why on its line
+  (``# optional: ...``): a heavy or ROS-only dependency loaded when used.
+- One place for rclpy's and mcap_ros2's private APIs (wire/private_api.py).
 """
 import ast
 import os
@@ -11,7 +17,18 @@ import pytest
 
 ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                     'px100_control')
-PURE = ('models', 'kinematics', 'control', 'bag', 'sim')
+PURE = ('wire', 'models', 'kinematics', 'control', 'sim', 'bag')
+#: layer rank of each top-level package of px100_control (a module may import rank <= its own)
+LAYERS = {'errors': 0, 'paths': 0, '__init__': 0, 'wire': 1, 'kinematics': 2, 'models': 3,
+          'control': 4, 'sim': 4, 'bag': 4, 'tools': 4, 'ros': 5, 'client': 6}
+#: cycles and function-level imports in the client package, left for after the client branch
+#: (#18) lands: arm <-> manipulator (a module __getattr__), core <-> gripper (pwm_to_effort),
+#: core -> inprocess -> ros nodes. The test below fails when one of them is gone, so the list
+#: only shrinks.
+KNOWN_CLIENT = {'px100_control.client.arm', 'px100_control.client.core',
+                'px100_control.client.gripper', 'px100_control.client.manipulator',
+                'px100_control.client', 'px100_control.client.inprocess',
+                'px100_control.client.mr_descriptions'}
 
 
 def _forbidden(module: str) -> bool:
@@ -66,3 +83,170 @@ def test_detector_catches_ros_imports(tmp_path):
                    "x = __import__('std_msgs.msg')\n")
     found = [m for _, m in _imports(str(src)) if _forbidden(m)]
     assert found == ['rclpy', 'sensor_msgs.msg', 'builtin_interfaces.msg', 'std_msgs.msg']
+
+
+# ---------------------------------------------------------------------------------------------
+# layer order, cycles, imports at the top
+# ---------------------------------------------------------------------------------------------
+
+def _module_name(path: str) -> str:
+    rel = os.path.relpath(path, os.path.dirname(ROOT))[:-3].replace(os.sep, '.')
+    return rel[:-len('.__init__')] if rel.endswith('.__init__') else rel
+
+
+def _project_imports(path: str):
+    """Yield (line, imported module, inside a function, marked optional) of project imports."""
+    with open(path, encoding='utf-8') as f:
+        text = f.read()
+    lines = text.split('\n')
+    tree = ast.parse(text, filename=path)
+    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            # 'from pkg import module' imports the module pkg.module
+            names = [f'{node.module}.{a.name}' for a in node.names] + [node.module]
+        else:
+            continue
+        names = [n for n in names if n.split('.')[0] == 'px100_control']
+        if not names:
+            continue
+        p, inside = parents.get(node), False
+        while p is not None and not inside:
+            inside = isinstance(p, (ast.FunctionDef, ast.AsyncFunctionDef))
+            p = parents.get(p)
+        marked = '# optional' in lines[node.lineno - 1]
+        for name in names:
+            yield node.lineno, name, inside, marked
+
+
+def _graph(files):
+    """Return {module: {(imported module, line, inside a function, marked)}} of the package."""
+    known = {_module_name(f) for f in files}
+    graph = {}
+    for f in files:
+        edges = set()
+        for line, name, inside, marked in _project_imports(f):
+            while name not in known and '.' in name:
+                name = name.rsplit('.', 1)[0]          # 'pkg.module.Class' -> 'pkg.module'
+            if name in known:
+                edges.add((name, line, inside, marked))
+        graph[_module_name(f)] = edges
+    return graph
+
+
+def _layer(module: str) -> str:
+    parts = module.split('.')
+    return parts[1] if len(parts) > 1 else '__init__'
+
+
+def _upward(graph):
+    """Return ['a (layer) -> b (layer), line n'] of imports from a lower layer to a higher one."""
+    bad = []
+    for module, edges in graph.items():
+        for target, line, _, _ in edges:
+            if LAYERS[_layer(target)] > LAYERS[_layer(module)]:
+                bad.append(f'{module} ({_layer(module)}) -> {target} ({_layer(target)}), '
+                           f'line {line}')
+    return bad
+
+
+def _cycles(graph):
+    """Return the strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w, *_ in graph.get(v, ()):
+            if w == v:
+                continue
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = set()
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.add(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(comp)
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def _all_files():
+    for dirpath, _, files in os.walk(ROOT):
+        for f in sorted(files):
+            if f.endswith('.py'):
+                yield os.path.join(dirpath, f)
+
+
+def test_every_package_has_a_layer():
+    assert {_layer(_module_name(f)) for f in _all_files()} <= set(LAYERS)
+
+
+def test_layer_order():
+    """No module imports from a higher layer (e.g. kinematics from models, bag from ros)."""
+    bad = _upward(_graph(list(_all_files())))
+    assert not bad, 'imports from a higher layer:\n' + '\n'.join(bad)
+
+
+def test_no_import_cycles():
+    """No cycle among the modules, apart from the client cycles listed in KNOWN_CLIENT."""
+    cycles = _cycles(_graph(list(_all_files())))
+    assert not [c for c in cycles if not c <= KNOWN_CLIENT], cycles
+    assert cycles, 'the client cycles are gone: empty KNOWN_CLIENT'
+
+
+def test_project_imports_at_the_top():
+    """A project import inside a function is marked '# optional: why' (client: KNOWN_CLIENT)."""
+    graph = _graph(list(_all_files()))
+    bad = sorted({f'{m}: line {line} imports {t}' for m, edges in graph.items()
+                  for t, line, inside, marked in edges
+                  if inside and not marked and m not in KNOWN_CLIENT})
+    assert not bad, 'function-level project imports (move to the top or mark # optional):\n' \
+        + '\n'.join(bad)
+
+
+def test_private_apis_in_one_module():
+    """Use rclpy's take_message and mcap_ros2._dynamic only in wire/private_api.py."""
+    bad = []
+    for f in _all_files():
+        if f.endswith(os.path.join('wire', 'private_api.py')):
+            continue
+        with open(f, encoding='utf-8') as src:
+            text = src.read()
+        bad += [os.path.relpath(f, ROOT) for word in ('take_message', 'mcap_ros2._dynamic')
+                if word in text]
+    assert not bad, bad
+
+
+def test_checks_catch_an_upward_import_a_cycle_and_a_hidden_import(tmp_path):
+    """The checks flag what they are for (a test that cannot fail proves nothing)."""
+    pkg = tmp_path / 'px100_control'
+    (pkg / 'kinematics').mkdir(parents=True)
+    (pkg / 'models').mkdir()
+    (pkg / 'kinematics' / 'a.py').write_text(
+        'def f():\n    from px100_control.models import b\n    return b\n')
+    (pkg / 'models' / 'b.py').write_text('from px100_control.kinematics import a\n')
+    global ROOT
+    saved, ROOT = ROOT, str(pkg)
+    try:
+        files = [str(pkg / 'kinematics' / 'a.py'), str(pkg / 'models' / 'b.py')]
+        graph = _graph(files)
+        assert _upward(graph) == ['px100_control.kinematics.a (kinematics) -> '
+                                  'px100_control.models.b (models), line 2']
+        assert _cycles(graph) == [{'px100_control.kinematics.a', 'px100_control.models.b'}]
+        assert [e for e in graph['px100_control.kinematics.a'] if e[2] and not e[3]]
+    finally:
+        ROOT = saved

@@ -17,8 +17,14 @@ import os
 import sys
 from typing import List, Optional
 
+from px100_control.bag import plots
+from px100_control.bag.plots import default_output_dir
 from px100_control.bag.reader import BagReader, BagSummary
+from px100_control.bag.tf import TfTree
+from px100_control.bag.world import extract_object_paths
 from px100_control.errors import BagError, Px100Error
+from px100_control.models.registry import load_robot
+from px100_control.models.urdf_writer import urdf_from_model
 
 
 def format_summary(summary: BagSummary) -> str:
@@ -49,18 +55,15 @@ def format_summary(summary: BagSummary) -> str:
 
 
 def _tf_tree(series, robot_model: Optional[str], robot_name: str):
-    from px100_control.bag.tf import TfTree
     if series.urdf_xml:
         try:
             return TfTree(series.urdf_xml)
         except Px100Error as exc:
             print(f'inspect: the recorded robot_description is not usable ({exc}); '
                   f'using the {robot_model} model', file=sys.stderr)
-    from px100_control.models.registry import load_robot
     model = load_robot(robot_model or 'px100')
     urdf = model.urdf_xml
     if not urdf:
-        from px100_control.models.urdf_writer import urdf_from_model
         urdf = urdf_from_model(model)
     return TfTree(urdf, f'{robot_name}/' if robot_name else '')
 
@@ -73,7 +76,6 @@ def write_plots(reader: BagReader, out_dir: str, namespace: Optional[str] = None
 
     Plots that the bag has no data for are skipped with a note on stderr.
     """
-    from px100_control.bag import plots
     series = plots.extract_series(reader, namespace)
     if not series.names:
         print(f'inspect: no joint_states in {reader.path}: no plots', file=sys.stderr)
@@ -96,7 +98,6 @@ def write_plots(reader: BagReader, out_dir: str, namespace: Optional[str] = None
     if len(xyz):
         written.append(plots.plot_ee_path(t, xyz, os.path.join(out_dir, 'ee_path.png'),
                                           source=source))
-    from px100_control.bag.world import extract_object_paths
     world = extract_object_paths(reader, series.namespace, series.start_ns)
     if world.objects():
         written.append(plots.plot_object_paths(t, xyz, world,
@@ -144,7 +145,6 @@ def main(args=None) -> int:
                 raise BagError(f'{summary.path}: the bag is empty (no messages)')
             if options.no_plots:
                 return 0
-            from px100_control.bag.plots import default_output_dir
             out_dir = options.output or default_output_dir(
                 reader.bag_dir if reader.info is not None else reader.path)
             files = write_plots(reader, out_dir, options.namespace, options.robot_model,

@@ -16,6 +16,7 @@ from typing import Dict, Iterable, Iterator, List, Optional, Tuple
 
 from px100_control.bag import metadata as md
 from px100_control.errors import BagError
+from px100_control.wire.private_api import definition_decoders
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_AND_MAGIC = 1 + 8 + 20 + 8
@@ -296,12 +297,11 @@ class BagReader:
         """
         if type_name in self._decoders:
             return self._decoders[type_name]
-        from mcap_ros2._dynamic import generate_dynamic
         text = self.schema_texts.get(type_name)
         if not text:
             raise BagError(f"{self.path}: no message definition stored for type '{type_name}'")
         try:
-            decoders = generate_dynamic(type_name, text)
+            decoders = definition_decoders(type_name, text)
         except Exception as exc:
             raise BagError(f"{self.path}: the stored definition of '{type_name}' cannot be "
                            f'parsed ({_reason(exc)})') from None

@@ -16,6 +16,7 @@ from typing import Dict, List, Optional
 
 from px100_control.bag import metadata as md
 from px100_control.bag.reader import BagReader, check_mcap_file, MCAP_MAGIC
+from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 
 BACKUP_SUFFIX = '.damaged'
@@ -86,9 +87,6 @@ def recover_file(path: str) -> FileReport:
     """
     from mcap.records import Channel, Message, Schema
     from mcap.stream_reader import StreamReader
-
-    from px100_control.bag.writer import BagWriter
-
     size = os.path.getsize(path)
     bag_dir, name = os.path.split(path)
     tmp_name = name + '.recovering'

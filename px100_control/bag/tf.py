@@ -6,17 +6,18 @@ one transform per URDF joint (parent link -> child link: origin times the joint 
 joints follow their master; joints without a value sit at 0). Frame names are the URDF link
 names with ``frame_prefix`` in front (``'px100/'`` for an unprefixed URDF; ``''`` when the URDF's
 links already carry the robot namespace, as the published robot_description does). The
-TFMessage is serialized from its message definition text (tf2_msgs need not be installed).
+TFMessage is serialized by ``wire.cdr.tf_message`` (tf2_msgs need not be installed).
 Units: m, rad; stamps in integer ns.
 """
 from dataclasses import dataclass
 import math
-import struct
 from typing import Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 from px100_control.errors import RobotModelError
 from px100_control.kinematics.rotations import matrix_to_quaternion
+from px100_control.models.urdf_chain import load_urdf
+from px100_control.wire.cdr import tf_message
 
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
 
@@ -51,7 +52,6 @@ class TfTree:
     """
 
     def __init__(self, urdf_xml: str, frame_prefix: str = ''):
-        from px100_control.models.urdf_chain import load_urdf
         urdf = load_urdf(urdf_xml)
         self.frame_prefix = frame_prefix
         joints = []
@@ -182,20 +182,6 @@ def _qmul(a, b):
             aw * bw - ax * bx - ay * by - az * bz)
 
 
-# -- TFMessage CDR encoding --------------------------------------------------------------------
-def _align(buf: bytearray, n: int) -> None:
-    # CDR alignment counts from the end of the 4-byte encapsulation header
-    pad = (-(len(buf) - 4)) % n
-    buf.extend(b'\x00' * pad)
-
-
-def _string(buf: bytearray, text: str) -> None:
-    data = text.encode('utf-8') + b'\x00'
-    _align(buf, 4)
-    buf.extend(struct.pack('<I', len(data)))
-    buf.extend(data)
-
-
 def encode_tf_message(transforms: List[tuple], stamp_ns: int) -> bytes:
     """
     Return the CDR bytes (little endian, with encapsulation header) of a tf2_msgs/TFMessage.
@@ -205,20 +191,11 @@ def encode_tf_message(transforms: List[tuple], stamp_ns: int) -> bytes:
     :param stamp_ns: header stamp of every transform [ns since the epoch]
     """
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-    buf = bytearray(b'\x00\x01\x00\x00')
-    buf.extend(struct.pack('<I', len(transforms)))
+    entries = []
     for entry in transforms:
         if len(entry) == 3:
             parent, child, T = entry
             T = np.asarray(T, dtype=float)
-            t = (T[0, 3], T[1, 3], T[2, 3])
-            q = matrix_to_quaternion(T[:3, :3])
-        else:
-            parent, child, t, q = entry
-        _align(buf, 4)
-        buf.extend(struct.pack('<iI', sec, nanosec))
-        _string(buf, parent)
-        _string(buf, child)
-        _align(buf, 8)
-        buf.extend(struct.pack('<7d', t[0], t[1], t[2], q[0], q[1], q[2], q[3]))
-    return bytes(buf)
+            entry = (parent, child, (T[0, 3], T[1, 3], T[2, 3]), matrix_to_quaternion(T[:3, :3]))
+        entries.append(entry)
+    return tf_message(entries, sec, nanosec)

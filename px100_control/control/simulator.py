@@ -45,7 +45,10 @@ from px100_control.control.actuator import servo_for_joint, ServoSpec
 from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import Pid, PidGains
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
+from px100_control.kinematics.kernels import quaternion_xyzw as _quaternion_xyzw
+from px100_control.models.urdf_chain import load_urdf
 from px100_control.sim.mjcf import build_model, GRAVITY
+from px100_control.sim.scene import check_reach
 
 #: control modes of a joint (see the module docstring)
 MODES = ('position', 'velocity', 'torque', 'duty')
@@ -266,32 +269,10 @@ def check_modes(names, kind: str, gripper: Optional[str], modes: Mapping[str, st
                                     f'the mode)')
 
 
-def _quaternion_xyzw(R) -> Tuple[float, float, float, float]:
-    """Return the unit quaternion (x, y, z, w), w >= 0, of a 3x3 rotation given as lists."""
-    tr = R[0][0] + R[1][1] + R[2][2]
-    if tr > 0.0:
-        s = 2.0 * math.sqrt(tr + 1.0)
-        q = ((R[2][1] - R[1][2]) / s, (R[0][2] - R[2][0]) / s, (R[1][0] - R[0][1]) / s, 0.25 * s)
-    elif R[0][0] > R[1][1] and R[0][0] > R[2][2]:
-        s = 2.0 * math.sqrt(1.0 + R[0][0] - R[1][1] - R[2][2])
-        q = (0.25 * s, (R[0][1] + R[1][0]) / s, (R[0][2] + R[2][0]) / s, (R[2][1] - R[1][2]) / s)
-    elif R[1][1] > R[2][2]:
-        s = 2.0 * math.sqrt(1.0 + R[1][1] - R[0][0] - R[2][2])
-        q = ((R[0][1] + R[1][0]) / s, 0.25 * s, (R[1][2] + R[2][1]) / s, (R[0][2] - R[2][0]) / s)
-    else:
-        s = 2.0 * math.sqrt(1.0 + R[2][2] - R[0][0] - R[1][1])
-        q = ((R[0][2] + R[2][0]) / s, (R[1][2] + R[2][1]) / s, 0.25 * s, (R[1][0] - R[0][1]) / s)
-    if q[3] < 0.0:
-        q = tuple(-x for x in q)
-    norm = math.sqrt(sum(x * x for x in q))
-    return tuple(x / norm for x in q)
-
-
 def _urdf_joint_dynamics(urdf_xml: Optional[str]) -> Dict[str, Tuple[float, float]]:
     """Return {joint: (damping, friction)} from a URDF's <dynamics> tags."""
     if not urdf_xml:
         return {}
-    from px100_control.models.urdf_chain import load_urdf
     out = {}
     for j in load_urdf(urdf_xml).robot.joints:
         dyn = j.dynamics
@@ -384,7 +365,6 @@ class ArmSimulator:
         self.servos = [servo_for_joint(t, float(e), overrides)
                        for t, e in zip(model.joint_types, model.effort_limits)]
         if scene is not None:
-            from px100_control.sim.scene import check_reach
             check_reach(scene, model)
         self.built = build_model(model, scene, 1.0 / config.control_rate)
         self.mj_model = m = self.built.model
@@ -1028,7 +1008,6 @@ def _horn_inertia(urdf_xml: Optional[str], gripper_joint: str) -> float:
     default = 1.2e-6
     if not urdf_xml:
         return default
-    from px100_control.models.urdf_chain import load_urdf
     urdf = load_urdf(urdf_xml)
     joints = {j.name: j for j in urdf.robot.joints}
     links = {link.name: link for link in urdf.robot.links}

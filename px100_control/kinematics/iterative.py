@@ -24,6 +24,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.kernels import cholesky, cholesky_solve
 from px100_control.kinematics.se3 import log_se3
 
 Vec = List[float]
@@ -51,6 +52,7 @@ class Chain:
     lo: tuple             # limits as floats
     hi: tuple
     wraps: tuple          # revolute joints whose range is (almost) a full turn
+    axes: tuple = ()      # per joint (axis code, sign, point on the axis) for fk_py, below
 
 
 @functools.lru_cache(maxsize=64)
@@ -74,7 +76,24 @@ def chain(model) -> Chain:
                  MR=tuple(tuple(r) for r in M[:3, :3].tolist()), Mp=tuple(M[:3, 3].tolist()),
                  lo=tuple(float(x) for x in model.lower), hi=tuple(float(x) for x in model.upper),
                  wraps=tuple(revolute[i] and float(model.upper[i] - model.lower[i])
-                             >= _TWO_PI - 1e-3 for i in range(n)))
+                             >= _TWO_PI - 1e-3 for i in range(n)),
+                 axes=tuple(_axis_code(w[i], Kv[i], revolute[i]) for i in range(n)))
+
+
+def _axis_code(w: np.ndarray, r: np.ndarray, revolute: bool) -> tuple:
+    """
+    Return (code, sign, (rx, ry, rz)) of a joint for ``fk_py``.
+
+    code 1, 2, 3: a revolute axis along +-x, +-y, +-z (sign) through the point r = w x v;
+    0: any other revolute axis; -1: prismatic.
+    """
+    point = tuple(float(x) for x in r)
+    if not revolute:
+        return -1, 1.0, point
+    k = int(np.argmax(np.abs(w)))
+    if abs(abs(w[k]) - 1.0) < 1e-15 and all(abs(w[i]) < 1e-15 for i in range(3) if i != k):
+        return k + 1, float(np.sign(w[k])), point
+    return 0, 1.0, point
 
 
 # ---------------------------------------------------------------------------------------------
@@ -160,11 +179,51 @@ def fk_jacobian_py(c: Chain, q: Sequence[float]):
 
 
 def fk_py(c: Chain, q: Sequence[float]):
-    """Return (R 3x3 nested lists, p [x, y, z]) of the end effector at q (plain floats)."""
+    """
+    Return (R 3x3 nested lists, p [x, y, z]) of the end effector at q (plain floats).
+
+    Each revolute joint is T_i = (R_i, (I - R_i) r) about its axis point r; axes along a base
+    coordinate axis at q = 0 take the short form of R_i (fewer products), others the Rodrigues
+    form of the screw.
+    """
     r00 = r11 = r22 = 1.0
     r01 = r02 = r10 = r12 = r20 = r21 = 0.0
     px = py_ = pz = 0.0
-    for (w, v, kv, k2v, rev), th in zip(c.py, q):
+    cos, sin = math.cos, math.sin
+    for (code, sg, (rx, ry, rz)), (w, v, kv, k2v, rev), th in zip(c.axes, c.py, q):
+        if code == 3:          # about z: columns 0, 1 turn; d = (I - Rz) r
+            t = sg * th
+            cs, sn = cos(t), sin(t)
+            dx, dy = rx - cs * rx + sn * ry, ry - sn * rx - cs * ry
+            px += r00 * dx + r01 * dy
+            py_ += r10 * dx + r11 * dy
+            pz += r20 * dx + r21 * dy
+            r00, r01 = cs * r00 + sn * r01, cs * r01 - sn * r00
+            r10, r11 = cs * r10 + sn * r11, cs * r11 - sn * r10
+            r20, r21 = cs * r20 + sn * r21, cs * r21 - sn * r20
+            continue
+        if code == 2:          # about y: columns 0, 2
+            t = sg * th
+            cs, sn = cos(t), sin(t)
+            dx, dz = rx - cs * rx - sn * rz, rz + sn * rx - cs * rz
+            px += r00 * dx + r02 * dz
+            py_ += r10 * dx + r12 * dz
+            pz += r20 * dx + r22 * dz
+            r00, r02 = cs * r00 - sn * r02, sn * r00 + cs * r02
+            r10, r12 = cs * r10 - sn * r12, sn * r10 + cs * r12
+            r20, r22 = cs * r20 - sn * r22, sn * r20 + cs * r22
+            continue
+        if code == 1:          # about x: columns 1, 2
+            t = sg * th
+            cs, sn = cos(t), sin(t)
+            dy, dz = ry - cs * ry + sn * rz, rz - sn * ry - cs * rz
+            px += r01 * dy + r02 * dz
+            py_ += r11 * dy + r12 * dz
+            pz += r21 * dy + r22 * dz
+            r01, r02 = cs * r01 + sn * r02, cs * r02 - sn * r01
+            r11, r12 = cs * r11 + sn * r12, cs * r12 - sn * r11
+            r21, r22 = cs * r21 + sn * r22, cs * r22 - sn * r21
+            continue
         if rev:
             wx, wy, wz = w
             s, cc = math.sin(th), 1.0 - math.cos(th)
@@ -375,43 +434,8 @@ def _dot(a, b) -> float:
 
 
 def _cholesky(A) -> list:
-    """Return the lower Cholesky factor L (nested lists) of a symmetric positive-definite A."""
-    n = len(A)
-    L = [[0.0] * n for _ in range(n)]
-    for j in range(n):
-        Lj = L[j]
-        s = A[j][j]
-        for k in range(j):
-            s -= Lj[k] * Lj[k]
-        d = math.sqrt(s) if s > 0.0 else 1e-150
-        Lj[j] = d
-        inv = 1.0 / d
-        for i in range(j + 1, n):
-            Li = L[i]
-            s = A[i][j]
-            for k in range(j):
-                s -= Li[k] * Lj[k]
-            Li[j] = s * inv
-    return L
-
-
-def _cholesky_apply(L, b) -> Vec:
-    """Solve L L^T x = b for x, L from ``_cholesky``."""
-    n = len(L)
-    y = [0.0] * n
-    for i in range(n):
-        Li = L[i]
-        s = b[i]
-        for k in range(i):
-            s -= Li[k] * y[k]
-        y[i] = s / Li[i]
-    x = [0.0] * n
-    for i in range(n - 1, -1, -1):
-        s = y[i]
-        for k in range(i + 1, n):
-            s -= L[k][i] * x[k]
-        x[i] = s / L[i][i]
-    return x
+    """Return the Cholesky factor of a damped (SPD up to rounding) Gram matrix."""
+    return cholesky(A, floor=1e-150)
 
 
 def _gram(vectors, lam2: float) -> list:
@@ -440,13 +464,13 @@ def _dls_apply(rows, lam2: float):
         L = _cholesky(_gram(rows, lam2))
 
         def apply(b):
-            y = _cholesky_apply(L, b)
+            y = cholesky_solve(L, b)
             return [sum(map(mul, col, y)) for col in cols]
         return apply
     L = _cholesky(_gram(cols, lam2))
 
     def apply_n(b):
-        return _cholesky_apply(L, [sum(map(mul, col, b)) for col in cols])
+        return cholesky_solve(L, [sum(map(mul, col, b)) for col in cols])
     return apply_n
 
 
@@ -504,8 +528,8 @@ def _dls_solve(cols, e, lam2: float) -> Vec:
         return [sum(map(mul, col, y)) for col in cols]
     if n <= m:
         b = [sum(map(mul, col, e)) for col in cols]
-        return _cholesky_apply(_cholesky(_gram(cols, lam2)), b)
-    y = _cholesky_apply(_cholesky(_gram(list(zip(*cols)), lam2)), e)
+        return cholesky_solve(_cholesky(_gram(cols, lam2)), b)
+    y = cholesky_solve(_cholesky(_gram(list(zip(*cols)), lam2)), e)
     return [sum(map(mul, col, y)) for col in cols]
 
 

@@ -6,6 +6,7 @@ R = Rz(yaw) Ry(pitch) Rx(roll). Quaternions are ROS-ordered (x, y, z, w).
 """
 import numpy as np
 
+from px100_control.kinematics.kernels import quaternion_xyzw
 from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
 
 
@@ -52,25 +53,4 @@ def quaternion_to_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
 
 def matrix_to_quaternion(R: np.ndarray):
     """Return the unit quaternion (x, y, z, w) of a (3, 3) rotation, with w >= 0."""
-    t = np.trace(R)
-    if t > 0:
-        s = 2.0 * np.sqrt(t + 1.0)
-        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, \
-            (R[1, 0] - R[0, 1]) / s
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, \
-            (R[0, 2] + R[2, 0]) / s
-    elif R[1, 1] > R[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
-        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, \
-            (R[1, 2] + R[2, 1]) / s
-    else:
-        s = 2.0 * np.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
-        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, \
-            (R[1, 2] + R[2, 1]) / s, 0.25 * s
-    q = np.array([x, y, z, w])
-    q /= np.linalg.norm(q)
-    if q[3] < 0:
-        q = -q
-    return tuple(float(v) for v in q)
+    return quaternion_xyzw(np.asarray(R, dtype=float).tolist())

@@ -32,9 +32,11 @@ import numpy as np
 
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
+from px100_control.kinematics.analytic import px100
 from px100_control.kinematics.ik_types import IkResult
 from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_py, solve_dls,
                                                 solve_newton, Task)
+from px100_control.kinematics.kernels import wrap
 
 MODES = ('full', 'pitch', 'position')
 METHODS = ('auto', 'analytic', 'dls', 'newton')
@@ -46,10 +48,6 @@ _RESTARTS = 24            # iterative starts (see _starts)
 def _solver(name: str):
     """Return the analytic module ``name`` (cached: importlib costs a lookup per call)."""
     return get_solver(name)
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def check_pose(T_target, what: str = 'pose') -> np.ndarray:
@@ -82,6 +80,33 @@ def check_pose(T_target, what: str = 'pose') -> np.ndarray:
         raise InvalidInputError(f'{what} rotation is not a rotation matrix (|R^T R - I| = '
                                 f'{err:.3g}, det = {det:.3g})')
     return T
+
+
+def pose_rows(T_target, what: str = 'pose') -> list:
+    """
+    Return a rigid pose as 4 rows of 4 floats; raise InvalidInputError as ``check_pose`` does.
+
+    The plain-float check of the IK hot path (a float (4, 4) array or nested lists): finite,
+    bottom row [0, 0, 0, 1], rotation orthonormal (1e-6) with det +1; anything else goes
+    through ``check_pose`` for the exact error.
+    """
+    try:
+        L = T_target.tolist() if isinstance(T_target, np.ndarray) else [
+            [float(x) for x in row] for row in T_target]
+        (a, b, c, x), (d, e, f, y), (g, h, k, z), (m, n, o, w) = L
+        s = a + b + c + x + d + e + f + y + g + h + k + z + m + n + o + w
+    except (TypeError, ValueError):
+        return check_pose(T_target, what).tolist()
+    if (s - s != 0.0 or m != 0.0 or n != 0.0 or o != 0.0 or w != 1.0
+            or type(a) is not float):
+        return check_pose(T_target, what).tolist()
+    # columns (a, d, g), (b, e, h), (c, f, k): unit and orthogonal, det = +1
+    if max(abs(a * a + d * d + g * g - 1.0), abs(b * b + e * e + h * h - 1.0),
+           abs(c * c + f * f + k * k - 1.0), abs(a * b + d * e + g * h),
+           abs(a * c + d * f + g * k), abs(b * c + e * f + h * k)) > 1e-6 or (
+            a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)) < 0.0:
+        return check_pose(T_target, what).tolist()
+    return L
 
 
 def target_azimuth(model, p) -> float:
@@ -144,14 +169,14 @@ def pitch_target(model, T: np.ndarray):
         return T, {'unreachable_roll': 0.0, 'unreachable_yaw': 0.0}
     r, p, y = _euler_sxyz(T)
     if abs(r) > math.pi / 2:
-        r, p, y = _wrap(r + math.pi), _wrap(math.pi - p), _wrap(y + math.pi)
+        r, p, y = wrap(r + math.pi), wrap(math.pi - p), wrap(y + math.pi)
     a = target_azimuth(model, T[:3, 3])
-    dy = _wrap(y - a)
-    y_forced = a if abs(dy) <= math.pi / 2 else _wrap(a + math.pi)
+    dy = wrap(y - a)
+    y_forced = a if abs(dy) <= math.pi / 2 else wrap(a + math.pi)
     keep_roll = n == 5
     Tf = _pose_sxyz(T[:3, 3], r if keep_roll else 0.0, p, y_forced)
     return Tf, {'unreachable_roll': 0.0 if keep_roll else float(r),
-                'unreachable_yaw': float(_wrap(y - y_forced)),
+                'unreachable_yaw': float(wrap(y - y_forced)),
                 'pitch': float(p), 'yaw': float(y_forced)}
 
 
@@ -376,7 +401,7 @@ def _starts(model, q_seed, q_nominal, azimuth=None):
                  else [q_seed[0] + 2 * math.pi / 3, q_seed[0] - 2 * math.pi / 3])
         for t in turns:
             s = np.array(q_seed, float)
-            s[0] = _wrap(t)
+            s[0] = wrap(t)
             fixed.append(np.clip(s, lo, hi))
     rng = np.random.default_rng(0)
     seen: list = []
@@ -418,6 +443,178 @@ def _iterative(model, task, method, q_seed, q_nominal, check_limits, tol_p, tol_
     return best
 
 
+# ---------------------------------------------------------------------------------------------
+# closed forms first: the default path on plain floats
+# ---------------------------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=64)
+def _fast_module(model):
+    """Return the analytic module when it has a plain-float entry for full poses, else None."""
+    if not model.analytic_ik:
+        return None
+    module = _solver(model.analytic_ik)
+    if hasattr(module, 'ik_fast') or hasattr(module, 'candidates_rows'):
+        return module
+    return None
+
+
+@functools.lru_cache(maxsize=64)
+def _home_list(model) -> list:
+    return [float(x) for x in model.home]
+
+
+def pose_errors(R, p, L):
+    """
+    Return (position error [m], rotation angle [rad]) between a pose and a target.
+
+    R: 3 rows of 3, p: (x, y, z); L: the target as 4 rows of 4 (plain floats, base frame).
+    """
+    (t00, t01, t02, tx), (t10, t11, t12, ty), (t20, t21, t22, tz) = L[0], L[1], L[2]
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
+    dp = math.sqrt((tx - p[0]) ** 2 + (ty - p[1]) ** 2 + (tz - p[2]) ** 2)
+    # E = R^T R_t: its trace and skew part give the angle
+    e00 = r00 * t00 + r10 * t10 + r20 * t20
+    e11 = r01 * t01 + r11 * t11 + r21 * t21
+    e22 = r02 * t02 + r12 * t12 + r22 * t22
+    e01 = r00 * t01 + r10 * t11 + r20 * t21
+    e10 = r01 * t00 + r11 * t10 + r21 * t20
+    e02 = r00 * t02 + r10 * t12 + r20 * t22
+    e20 = r02 * t00 + r12 * t10 + r22 * t20
+    e12 = r01 * t02 + r11 * t12 + r21 * t22
+    e21 = r02 * t01 + r12 * t11 + r22 * t21
+    s = 0.5 * math.sqrt((e21 - e12) ** 2 + (e02 - e20) ** 2 + (e10 - e01) ** 2)
+    return dp, math.atan2(s, 0.5 * (e00 + e11 + e22 - 1.0))
+
+
+def _in_limits_by_seed(c, C, seed) -> list:
+    """
+    Return the candidates (lists) inside the joint limits, closest to the seed first.
+
+    Revolute values outside their limits are shifted by +-2 pi when that brings them in (as
+    ``_wrap_into_limits``); non-finite candidates drop out; duplicates (1e-9) are dropped.
+    """
+    lo, hi, py = c.lo, c.hi, c.py
+    two_pi = 2.0 * math.pi
+    keep = []
+    for q in C:
+        q = list(q)
+        for j, x in enumerate(q):
+            a, b = lo[j] - 1e-9, hi[j] + 1e-9
+            if a <= x <= b:
+                continue
+            if py[j][4]:
+                if a <= x + two_pi <= b:
+                    q[j] = x + two_pi
+                    continue
+                if a <= x - two_pi <= b:
+                    q[j] = x - two_pi
+                    continue
+            break
+        else:
+            keep.append(q)
+    if len(keep) > 1:
+        scored = sorted([(sum([(x - y) * (x - y) for x, y in zip(q, seed)]), q) for q in keep],
+                        key=lambda t: t[0])
+        keep = []
+        kept_d = []
+        for d, q in scored:
+            # a duplicate has the same distance to the seed: compare only those
+            if any(abs(d - e) < 1e-6 and max([abs(x - y) for x, y in zip(q, o)]) <= 1e-9
+                   for e, o in zip(kept_d, keep)):
+                continue
+            keep.append(q)
+            kept_d.append(d)
+    return keep
+
+
+def _verified(c, Q, L, tol_p: float, tol_o: float) -> list:
+    """Return the configurations of Q (lists) whose FK meets the target L, as arrays."""
+    out = []
+    for q in Q:
+        R, p = fk_py(c, q)
+        pe, oe = pose_errors(R, p, L)
+        if pe <= tol_p and oe <= tol_o:
+            out.append(np.array(q, dtype=float))
+    return out
+
+
+def _solve_full_fast(model, L, seed, tol_p: float, tol_o: float):
+    """
+    Solve a full pose in closed form on plain floats; None when the general path must decide.
+
+    Every closed-form candidate (``candidates_rows``) is shifted into the joint limits, the
+    in-limit ones are ordered by distance to the seed, and the first that FK verifies is
+    ``solve_ik``'s answer (a 4/5-DOF arm's candidates may miss an unreachable orientation);
+    the ones after it are verified when ``solutions`` is first read. A 7-DOF
+    swivel module (``ik_fast``) gives its in-limit solution at the swivel nearest the seed's;
+    the other branches come from the general swivel search on first read. None (the general
+    path then gives the exact answer or reason): no verified candidate in the limits, or one
+    within rounding of the target that the general path polishes (singular and unreachable
+    targets end here).
+    """
+    module = _fast_module(model)
+    if module is None:
+        return None
+    c = chain(model)
+    name = f'analytic:{model.analytic_ik}'
+    if hasattr(module, 'ik_fast'):
+        q, _ = module.ik_fast(model, L, seed)
+        if q is None:
+            return None
+        q = list(q)
+        R, p = fk_py(c, q)
+        pe, oe = pose_errors(R, p, L)
+        if pe > tol_p or oe > tol_o:
+            return None
+
+        def more():
+            res = _analytic(model, np.array(L), 'full', Task(np.array(L[:3])[:, 3],
+                                                             np.array(L[:3])[:, :3], 'full'),
+                            np.array(seed), np.asarray(model.home, float), True, tol_p, tol_o,
+                            200, module)
+            return [s for s in res.solutions if np.abs(s - np.array(q)).max() > 1e-9]
+        return IkResult(True, np.array(q), None, name, 0, pe, oe, '', {'swivel': True},
+                        more=more)
+    if getattr(module, 'prunes_by_limits', False):
+        C = module.candidates_rows(model, L, 'full', (c.lo, c.hi))
+    else:
+        C = module.candidates_rows(model, L, 'full')
+    ordered = _in_limits_by_seed(c, C, seed)
+    for i, q in enumerate(ordered):
+        R, p = fk_py(c, q)
+        pe, oe = pose_errors(R, p, L)
+        if pe <= tol_p and oe <= tol_o:
+            rest = ordered[i + 1:]
+            return IkResult(True, np.array(q, dtype=float), None, name, 0, pe, oe, '',
+                            {'candidates': len(C)},
+                            more=lambda: _verified(c, rest, L, tol_p, tol_o))
+        if pe < _POLISH_LIMIT and oe < _POLISH_LIMIT:
+            return None            # near-singular rounding: the general path polishes it
+    return None
+
+
+def _solve_pitch_fast(model, L, seed, tol_p: float, tol_o: float):
+    """'pitch' mode of a px100-family arm on plain floats (``solve_pitch_scalar``), or None."""
+    out = solve_pitch_scalar(model, L[0][3], L[1][3], L[2][3], [L[0][:3], L[1][:3], L[2][:3]],
+                             seed, tol_p, tol_o)
+    if out is None:
+        return None
+    sols, pe, oe, roll, yaw, flipped, (pitch, forced) = out
+    details = {'unreachable_roll': roll, 'unreachable_yaw': yaw, 'pitch': pitch,
+               'yaw': forced}
+    if flipped:
+        details['roll_flipped'] = True
+    return IkResult(True, np.array(sols[0], dtype=float),
+                    [np.array(s, dtype=float) for s in sols], f'analytic:{model.analytic_ik}',
+                    0, pe, oe, '', details)
+
+
+def _check_tolerances(tol_position, tol_orientation) -> None:
+    for name, tol in (('tol_position', tol_position), ('tol_orientation', tol_orientation)):
+        if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+            raise InvalidInputError(f'{name} must be a positive finite number, not {tol!r}')
+
+
 def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None,
              check_limits: bool = True, method: str = 'auto', tol_position: float = 1e-9,
              tol_orientation: float = 1e-9, max_iterations: int = 200,
@@ -443,14 +640,27 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
         raise InvalidInputError(f'mode must be one of {MODES}, not {mode!r}')
     if method not in METHODS:
         raise InvalidInputError(f'method must be one of {METHODS}, not {method!r}')
-    T = check_pose(T_target, 'target pose')
-    q_seed = np.asarray(model.home, float) if q_seed is None else model.check_vector(
-        q_seed, 'q_seed')
-    q_nominal = np.asarray(model.home, float) if q_nominal is None else model.check_vector(
-        q_nominal, 'q_nominal')
-    for name, tol in (('tol_position', tol_position), ('tol_orientation', tol_orientation)):
-        if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
-            raise InvalidInputError(f'{name} must be a positive finite number, not {tol!r}')
+    L = pose_rows(T_target, 'target pose')
+    seed = _home_list(model) if q_seed is None else model.check_vector(
+        q_seed, 'q_seed').tolist()
+    if q_nominal is not None:
+        q_nominal = model.check_vector(q_nominal, 'q_nominal')
+    _check_tolerances(tol_position, tol_orientation)
+    if method == 'auto' and check_limits and mode != 'position':
+        # closed forms first, on plain floats; None: the general path below decides
+        res = None
+        if mode == 'full' or model.dof >= 6:
+            res = _solve_full_fast(model, L, seed, tol_position, tol_orientation)
+            if res is not None and mode == 'pitch':
+                res.details.update(unreachable_roll=0.0, unreachable_yaw=0.0)
+        elif upright_first and scalar_pitch_solver(model) is not None:
+            res = _solve_pitch_fast(model, L, seed, tol_position, tol_orientation)
+        if res is not None:
+            return res
+    T = np.array(L, dtype=float)
+    q_seed = np.array(seed, dtype=float)
+    if q_nominal is None:
+        q_nominal = np.asarray(model.home, float)
     as_full = mode == 'pitch' and model.dof < 6 and not pitch_applies(model)
     if as_full:
         mode = 'full'
@@ -464,7 +674,7 @@ def solve_ik(model, T_target, *, mode: str = 'full', q_seed=None, q_nominal=None
         if res.success or method == 'analytic' or getattr(module, 'complete', False):
             if res.details.pop('roll_flipped', False):
                 # only the upside-down configuration is in the limits: say so
-                details['unreachable_roll'] = _wrap(details['unreachable_roll'] - math.pi)
+                details['unreachable_roll'] = wrap(details['unreachable_roll'] - math.pi)
                 details['roll_flipped'] = True
             res.details.update(details)
             return res
@@ -490,7 +700,6 @@ def scalar_pitch_solver(model):
     """Return the px100-family scalar solver when 'pitch' requests can use it, else None."""
     if model.analytic_ik != 'px100' or model.dof != 4 or not pitch_applies(model):
         return None
-    from px100_control.kinematics.analytic import px100
     g = px100.geometry(model)
     # the arm frame must be the base frame up to a translation (same azimuths) and the tool
     # frame at q = 0 aligned with it (front branch = tool roll 0)
@@ -513,7 +722,8 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
 
     :param x, y, z: target position [m], base frame; R: rotation, 3 rows of 3 (finite, valid)
     :return: (solutions [tuples], position_error [m], orientation_error [rad],
-        unreachable_roll [rad], unreachable_yaw [rad], roll_flipped) or None; roll_flipped:
+        unreachable_roll [rad], unreachable_yaw [rad], roll_flipped, (pitch, yaw) kept and
+        forced [rad]) or None; roll_flipped:
         only configurations with the tool upside down are in the limits (solve_ik's
         ``details['roll_flipped']``, the dropped roll then measured from them)
     """
@@ -527,10 +737,10 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     pi = math.pi
     roll, pitch, yaw = math.atan2(r21, r22), math.atan2(-r20, cy), math.atan2(r10, r00)
     if abs(roll) > pi / 2:
-        roll, pitch, yaw = _wrap(roll + pi), _wrap(pi - pitch), _wrap(yaw + pi)
+        roll, pitch, yaw = wrap(roll + pi), wrap(pi - pitch), wrap(yaw + pi)
     a = target_azimuth(model, (x, y, z))
-    outward = abs(_wrap(yaw - a)) <= pi / 2
-    forced = a if outward else _wrap(a + pi)
+    outward = abs(wrap(yaw - a)) <= pi / 2
+    forced = a if outward else wrap(a + pi)
     # the solver's pitch is measured from the outward direction
     front, back = solver(x, y, z, pitch if outward else pi - pitch, 1e-9)
     upright, other = (front, back) if outward else (back, front)
@@ -538,7 +748,7 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     if flipped:
         if not other:
             return None
-        roll = _wrap(roll - pi)          # only the upside-down configurations are in limits
+        roll = wrap(roll - pi)          # only the upside-down configurations are in limits
     s0, s1, s2, s3 = (float(v) for v in q_seed)
 
     def cost(q):
@@ -559,7 +769,7 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     oe = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), x0 * d0 + x1 * d1 + x2 * d2)
     if pe > tol_position or oe > tol_orientation:
         return None
-    return sols, pe, oe, roll, _wrap(yaw - forced), flipped
+    return sols, pe, oe, roll, wrap(yaw - forced), flipped, (pitch, forced)
 
 
 def _pitch_rows_to_poses(model, rows: np.ndarray) -> np.ndarray:

@@ -27,13 +27,9 @@ caller must pick another equation (as the RRRP inverse model does: |cos q3| vs |
 import math
 from typing import List, Tuple
 
+from px100_control.kinematics.kernels import wrap_angle
+
 _TINY = 1e-300
-
-
-def wrap_angle(q: float) -> float:
-    """Return q [rad] wrapped to (-pi, pi]."""
-    w = math.remainder(q, 2.0 * math.pi)
-    return math.pi if w == -math.pi else w
 
 
 def _sqrt_disc(disc: float, scale: float, tol: float):

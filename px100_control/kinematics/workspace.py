@@ -16,6 +16,8 @@ import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.iterative import chain, fk_batch
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix
+from px100_control.kinematics.solve import solve_ik
 
 
 def _module(model):
@@ -43,8 +45,6 @@ def is_reachable(model, p, pitch: Optional[float] = None) -> Tuple[bool, float]:
     if module is not None and hasattr(module, 'reach_margin'):
         margin = float(module.reach_margin(model, p, None if pitch is None else float(pitch)))
         return margin >= 0.0, margin
-    from px100_control.kinematics.solve import solve_ik
-    from px100_control.kinematics.rotations import euler_sxyz_to_matrix
     T = np.eye(4)
     T[:3, 3] = p
     if pitch is not None:

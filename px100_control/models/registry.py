@@ -23,6 +23,7 @@ from px100_control.kinematics.dh import dh_to_screws, DHRow, tool_from_xyz_rpy
 from px100_control.kinematics.se3 import screw_axis
 from px100_control.models.robot_model import GripperSpec, RobotModel
 from px100_control.models.urdf_chain import chain_to_poe, load_urdf
+from px100_control.models.urdf_writer import urdf_from_model
 from px100_control.paths import data_path
 import yaml
 
@@ -153,7 +154,6 @@ def model_from_spec(spec: dict) -> RobotModel:
         **fields)
     if urdf_xml is None:
         # table robots publish a generated URDF (exact kinematics, approximate inertials)
-        from px100_control.models.urdf_writer import urdf_from_model
         model = dataclasses.replace(model, urdf_xml=urdf_from_model(model))
     return model
 

@@ -10,14 +10,14 @@ import sys
 from typing import List
 
 from px100_control.ros.common import parse_cli, run_nodes
+from px100_control.ros.ik_service_node import IkServiceNode
 from px100_control.ros.parameter_schema import IK_SERVICE, SIM_DRIVER, TRAJECTORY_SERVER
+from px100_control.ros.sim_driver_node import SimDriverNode
+from px100_control.ros.trajectory_server_node import TrajectoryServerNode
 
 
 def create_nodes(**node_kwargs) -> List:
     """Return [SimDriverNode, IkServiceNode, TrajectoryServerNode] built with node_kwargs."""
-    from px100_control.ros.ik_service_node import IkServiceNode
-    from px100_control.ros.sim_driver_node import SimDriverNode
-    from px100_control.ros.trajectory_server_node import TrajectoryServerNode
     nodes = []
     try:
         for cls in (SimDriverNode, IkServiceNode, TrajectoryServerNode):

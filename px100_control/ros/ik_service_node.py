@@ -30,17 +30,14 @@ has one, iterative otherwise or as a fallback); ``tol_position`` [m], ``tol_orie
 [rad], ``max_iterations``; ``nominal_pose`` (default: the model's home pose).
 The IK itself is :func:`px100_control.kinematics.solve.solve_ik` / ``solve_path``.
 
-Throughput path: requests are read serialized (header, frame and pose straight from the CDR
-bytes) and every request already queued is answered in the same executor wake-up. 'pitch'
-requests to a px100-family arm are solved on plain floats (``solve_pitch_scalar``: the
-solve_ik answer, verified by FK; anything it does not settle goes through solve_ik); for other
-arms with an analytic batch solver, when at least ``BATCH_MIN`` are waiting, with one
-vectorised call (``solve_ik_batch``), verified the same way. Replies are written as CDR bytes
-(``ros.cdr``, checked at start against the middleware's deserializer; preallocated messages
-otherwise). The node spins single-threaded.
+Every request goes through ``solve_ik`` (the function the client and the benchmarks call: closed
+forms first on plain floats, the iterative search only where needed). Throughput: requests are
+read serialized (header, frame and pose straight from the CDR bytes) and every request already
+queued is answered in the same executor wake-up. Replies are written as CDR bytes (``ros.cdr``,
+checked at start against the middleware's deserializer; preallocated messages otherwise). The
+node spins single-threaded.
 """
 import math
-import struct
 import threading
 
 from builtin_interfaces.msg import Time
@@ -49,19 +46,14 @@ from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
 from px100_control.control.path_timing import joint_speed_bounds, path_times
 from px100_control.errors import InvalidInputError
-from px100_control.kinematics.analytic import get_solver
-from px100_control.kinematics.ik_types import IkResult
-from px100_control.kinematics.iterative import chain as ik_chain, fk_batch as ik_fk_batch
-from px100_control.kinematics.rotations import quaternion_to_rows
-from px100_control.kinematics.solve import make_task as ik_make_task
-from px100_control.kinematics.solve import (METHODS, scalar_pitch_solver, solve_ik, solve_path,
-                                            solve_pitch_scalar)
-from px100_control.kinematics.solve import solve_ik_batch as ik_batch
+from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
 from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
                                       robot_name, robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
 from px100_control.ros.parameter_schema import IK_SERVICE
+from px100_control.wire.cdr import read_pose_stamped
+from px100_control.wire.private_api import take_serialized
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.node import Node
@@ -72,11 +64,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 NODE_NAME = 'ik_service'
-_HEAD = struct.Struct('<iII')     # header.stamp.sec, .nanosec, frame_id length (with NUL)
-_POSE = struct.Struct('<7d')      # position x y z, orientation x y z w
 MODES = {'pitch': 'pitch', 'strict': 'full'}
-#: queued 'pitch' requests from which one vectorised call beats solve_ik per request
-BATCH_MIN = 4
 
 #: requests and replies: reliable and deep, so bursts from many clients lose nothing
 REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
@@ -84,35 +72,21 @@ REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                          durability=DurabilityPolicy.VOLATILE)
 
 
-def parse_pose_stamped(raw: bytes):
+def parse_pose_stamped(raw: bytes, in_place: bool = True):
     """
     Return (stamp (builtin_interfaces/Time), frame_id, (x, y, z, qx, qy, qz, qw)) of a request.
 
-    ``raw`` is a serialized geometry_msgs/PoseStamped. Little-endian CDR (what every ROS 2
-    middleware here sends) is read in place: header.stamp, frame_id, then the 7 doubles aligned
-    to 8; anything else goes through rclpy's deserializer.
+    ``raw`` is a serialized geometry_msgs/PoseStamped, read in place (``wire.cdr``) when
+    ``in_place`` (the reader agreed with rclpy at start); anything it cannot read goes through
+    rclpy's deserializer.
     """
-    if raw[:2] == b'\x00\x01' and len(raw) >= 16:
-        sec, nanosec, n = _HEAD.unpack_from(raw, 4)
-        off = 12 + n                      # CDR offsets count from the end of the 4-byte header
-        off += -off % 8
-        if n >= 1 and 4 + off + 56 <= len(raw):
-            frame = raw[16:15 + n].decode('utf-8', 'replace')
-            return Time(sec=sec, nanosec=nanosec), frame, _POSE.unpack_from(raw, 4 + off)
+    got = read_pose_stamped(raw) if in_place else None
+    if got is not None:
+        sec, nanosec, frame, values = got
+        return Time(sec=sec, nanosec=nanosec), frame, values
     msg = deserialize_message(raw, PoseStamped)
     p, o = msg.pose.position, msg.pose.orientation
     return msg.header.stamp, msg.header.frame_id, (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
-
-
-def _distinct(Q: np.ndarray, seed: np.ndarray, tol: float = 1e-9):
-    """Return the rows of Q without duplicates, ordered by distance to seed (plain floats)."""
-    s = seed.tolist()
-    rows = sorted(Q.tolist(), key=lambda q: sum((a - b) ** 2 for a, b in zip(q, s)))
-    out = []
-    for q in rows:
-        if all(max(abs(a - b) for a, b in zip(q, o)) > tol for o in out):
-            out.append(q)
-    return [np.array(q) for q in out]
 
 
 def _fmt(x: float) -> str:
@@ -141,17 +115,11 @@ class IkServiceNode(Node):
         self._have_state = False
         self._js_names = None
         self._js_map = None
-        # the batched fast path: robots whose analytic solver has solve_batch
-        self._max_batch = 256
-        self._chain = None
-        self._batch_method = f'analytic:{self.model.analytic_ik}'
-        if self.model.analytic_ik:
-            if hasattr(get_solver(self.model.analytic_ik), 'solve_batch'):
-                self._chain = ik_chain(self.model)
-        self._scalar = scalar_pitch_solver(self.model) is not None
+        self._max_batch = 256         # queued requests answered per executor wake-up
         self._load_parameters()
         self.add_post_set_parameters_callback(lambda params: self._load_parameters())
         self._raw_replies = cdr.matches_rclpy()
+        self._raw_requests = cdr.pose_stamped_matches_rclpy()
         self._solution_writer = cdr.JointStateWriter(self._names)
 
         self._pub_solution = self.create_publisher(JointState, robot_topic(self, 'ik/solution'),
@@ -210,9 +178,6 @@ class IkServiceNode(Node):
         self._mode = MODES[self._mode_param]
         self._orientation_tol = float(get('orientation_tolerance').value)
         self._nominal = np.asarray(get('nominal_pose').value, float)
-        analytic = str(get('method').value) in ('auto', 'analytic')
-        self._batch_ready = self._chain is not None and analytic
-        self._scalar_ready = self._scalar and analytic and self._mode == 'pitch'
         self._kwargs = {'method': str(get('method').value),
                         'tol_position': float(get('tol_position').value),
                         'tol_orientation': float(get('tol_orientation').value),
@@ -254,62 +219,24 @@ class IkServiceNode(Node):
                 break
             batch.append(queued)
         seed = self._seed()
-        seed_list = seed.tolist()
-        fast = []
         for req in batch:
             try:
-                stamp, frame, values = parse_pose_stamped(req)
+                stamp, frame, values = parse_pose_stamped(req, self._raw_requests)
             except Exception as exc:  # noqa: B902 - unreadable bytes: no id to answer to
                 self.get_logger().error(f'unreadable ik/request dropped: {exc!r}')
-                continue
-            if self._scalar_ready and frame in self._frames and self._solve_scalar(
-                    stamp, values, seed_list):
                 continue
             try:
                 T, mode = self._target(frame, values)
             except InvalidInputError as exc:
                 self._reply(stamp, None, DiagnosticStatus.ERROR, f'invalid request: {exc}', ())
                 continue
-            if mode == 'pitch' and self._batch_ready:
-                fast.append((stamp, T))
-            else:
-                self._solve_one(stamp, T, mode, seed)
-        if len(fast) >= BATCH_MIN:
-            self._solve_fast(fast, seed)
-        else:
-            for stamp, T in fast:
-                self._solve_one(stamp, T, 'pitch', seed)
-
-    def _solve_scalar(self, stamp, values, seed_list) -> bool:
-        """Answer a 'pitch' request on plain floats; False when solve_ik must take it."""
-        x, y, z, qx, qy, qz, qw = values
-        n2 = qx * qx + qy * qy + qz * qz + qw * qw
-        # NaN/inf, an all-zero (position-only) or badly scaled quaternion: the general path
-        if not (0.998 <= n2 <= 1.002 and math.isfinite(x + y + z)):
-            return False
-        R = quaternion_to_rows(qx, qy, qz, qw, n2)
-        try:
-            out = solve_pitch_scalar(self.model, x, y, z, R, seed_list,
-                                     self._kwargs['tol_position'],
-                                     self._kwargs['tol_orientation'])
-        except Exception:  # noqa: B902 - the general path answers (and reports) instead
-            return False
-        if out is None:
-            return False
-        sols, pe, oe, roll, yaw, _ = out
-        values = [('mode', 'pitch'), ('method', self._batch_method), ('iterations', '0'),
-                  ('position_error', _fmt(pe)), ('orientation_error', _fmt(oe)),
-                  ('solutions', str(len(sols))), ('unreachable_roll', _fmt(roll)),
-                  ('unreachable_yaw', _fmt(yaw))]
-        self._reply(stamp, sols[0], DiagnosticStatus.OK, self._pitch_message(roll, yaw), values)
-        return True
+            self._solve_one(stamp, T, mode, seed)
 
     def _take_queued(self):
         """Return the next request waiting in the subscription queue, or None."""
         sub = self._request_sub
         try:
-            with sub.handle:
-                taken = sub.handle.take_message(sub.msg_type, sub.raw)
+            taken = take_serialized(sub)
         except Exception:  # noqa: B902 - draining is an optimisation; the executor takes it
             return None
         return None if taken is None else taken[0]
@@ -333,63 +260,6 @@ class IkServiceNode(Node):
         else:
             self._reply(stamp, None, DiagnosticStatus.ERROR, res.reason or 'no solution',
                         values)
-
-    def _solve_fast(self, items, seed) -> None:
-        """
-        Solve many 'pitch' requests with one vectorised analytic call (the throughput path).
-
-        Same result as solve_ik: every closed-form branch in limits, the one closest to the
-        seed first, verified by forward kinematics against the same task; a request the batch
-        does not settle (no branch, or a residual above tolerance) goes through solve_ik for
-        its exact answer and reason.
-        """
-        try:
-            X = np.array([T for _, T in items])
-            Q_all, ok_all = ik_batch(self.model, X, q_seed=seed, return_all=True)
-        except Exception:  # noqa: B902 - fall back to the general solver
-            for stamp, T in items:
-                self._solve_one(stamp, T, 'pitch', seed)
-            return
-        tol_p, tol_o = self._kwargs['tol_position'], self._kwargs['tol_orientation']
-        sols_all, pending, flat = [], [], []
-        for i, (stamp, T) in enumerate(items):
-            sols = _distinct(Q_all[i][ok_all[i]], seed)
-            if not sols:
-                self._solve_one(stamp, T, 'pitch', seed)
-                continue
-            pending.append(i)
-            sols_all.append(sols)
-            flat.extend(sols)
-        if not pending:
-            return
-        T_fk = ik_fk_batch(self._chain, np.array(flat))
-        first = 0
-        for k, i in enumerate(pending):
-            stamp, T = items[i]
-            sols = sols_all[k]
-            task, details, _ = ik_make_task(self.model, T, 'pitch')
-            poses = T_fk[first:first + len(sols)]
-            first += len(sols)
-            if task.kind == 'axis':
-                # as solve_ik: the configurations with the target's tool roll first (tool y
-                # axis on the target's side); when only the roll-flipped one is left, solve_ik
-                # gives the exact answer and details
-                y_t = task.R[:, 1]
-                upright = [j for j in range(len(sols)) if float(poses[j][:3, 1] @ y_t) >= 0.0]
-                if not upright:
-                    self._solve_one(stamp, T, 'pitch', seed)
-                    continue
-                order = upright + [j for j in range(len(sols)) if j not in upright]
-                sols = [sols[j] for j in order]
-                poses = poses[order]
-            pe, oe = task.errors(poses[0])
-            if not (pe <= tol_p and oe <= tol_o):
-                self._solve_one(stamp, T, 'pitch', seed)
-                continue
-            res = IkResult(True, sols[0], sols, self._batch_method, 0, float(pe),
-                           float(oe), '', details)
-            self._reply(stamp, res.q, DiagnosticStatus.OK, self._solved_message(res, 'pitch'),
-                        self._values(res, 'pitch'))
 
     def _solved_message(self, res, mode: str) -> str:
         if mode != 'pitch':

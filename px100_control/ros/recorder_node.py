@@ -53,12 +53,16 @@ from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
 from px100_control.bag.world import MARKER_ARRAY_TYPE, markers_from_decoded, object_tf_entries
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
+from px100_control.models.registry import load_robot
 from px100_control.models.registry import read_robot_file
+from px100_control.models.urdf_prefix import prefix_urdf
+from px100_control.models.urdf_writer import urdf_from_model
 from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
                                       install_stop_signals, keep_spinning, make_executor,
                                       parameter_descriptor, parse_cli, robot_name,
                                       robot_node_kwargs, shutdown_executor, shutting_down)
 from px100_control.ros.parameter_schema import COMMON, RECORDER
+from px100_control.wire.private_api import take_serialized
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, LivelinessPolicy, QoSProfile,
@@ -236,11 +240,9 @@ class RecorderNode(Node):
     def _load_model(self) -> None:
         """Load the robot model's URDF and its tf tree (background thread)."""
         try:
-            from px100_control.models.registry import load_robot
             model = load_robot(self.model_name)
             urdf = model.urdf_xml
             if not urdf:
-                from px100_control.models.urdf_writer import urdf_from_model
                 urdf = urdf_from_model(model)
             self._model_urdf_xml = urdf
             self._model_tf_tree = TfTree(urdf, f'{self.robot_name}/' if self.robot_name
@@ -337,8 +339,7 @@ class RecorderNode(Node):
                 if sub is None or self._closing:
                     break
                 try:
-                    with sub.handle:
-                        taken = sub.handle.take_message(sub.msg_type, True)
+                    taken = take_serialized(sub)
                 except Exception:  # destroyed meanwhile (stop in progress)
                     break
                 if taken is None or not handle(*taken):
@@ -456,7 +457,6 @@ class RecorderNode(Node):
         if urdf is None:
             return
         if self.robot_name:
-            from px100_control.models.urdf_prefix import prefix_urdf
             urdf = prefix_urdf(urdf, self.robot_name)
         # std_msgs/String CDR: encapsulation header, uint32 length (with NUL), bytes, NUL
         text = urdf.encode('utf-8') + b'\x00'
@@ -526,8 +526,7 @@ class RecorderNode(Node):
         for topic, sub in list(self._subs.items()):
             for _ in range(100 * SUBSCRIPTION_DEPTH):
                 try:
-                    with sub.handle:
-                        taken = sub.handle.take_message(sub.msg_type, True)
+                    taken = take_serialized(sub)
                 except Exception:  # destroyed: nothing left to take
                     break
                 if taken is None:

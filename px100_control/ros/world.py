@@ -12,8 +12,10 @@ from typing import List, Optional
 
 from builtin_interfaces.msg import Time as TimeMsg
 from px100_control.bag.world import world_markers
+from px100_control.errors import InvalidInputError
 from px100_control.ros.common import LATCHED_QOS, robot_topic
 from px100_control.ros.world_msgs import marker_array
+from px100_control.sim.scene import load_scene
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
@@ -53,13 +55,11 @@ class WorldPublisher:
 
         :raises Px100Error: the loader's reason (unknown scene, bad field, overlap, ...)
         """
-        from px100_control.errors import InvalidInputError
         if not isinstance(scene, str):
             raise InvalidInputError(f'scene must be a string (a name or a .yaml path), '
                                     f'not {scene!r}')
         if not scene.strip():
             return None
-        from px100_control.sim.scene import load_scene
         return load_scene(scene.strip(), robot=robot)
 
     def _bodies(self, sim) -> List:

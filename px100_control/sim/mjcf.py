@@ -33,6 +33,7 @@ from typing import Dict, Optional, Tuple
 import mujoco
 import numpy as np
 from px100_control.errors import RobotModelError
+from px100_control.sim.scene import rpy_to_quaternion_xyzw
 
 #: finger pads stand this far proud of the URDF finger faces [m]
 PAD_PROUD = 0.004
@@ -218,7 +219,6 @@ def build_spec(robot, scene=None, timestep: float = 0.001):
 
 
 def _add_scene(spec, scene) -> None:
-    from px100_control.sim.scene import rpy_to_quaternion_xyzw
     kinds = {'box': mujoco.mjtGeom.mjGEOM_BOX, 'cylinder': mujoco.mjtGeom.mjGEOM_CYLINDER,
              'sphere': mujoco.mjtGeom.mjGEOM_SPHERE}
     for b in scene.bodies:

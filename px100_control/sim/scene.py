@@ -32,6 +32,7 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 from px100_control.errors import InvalidInputError
+from px100_control.kinematics.iterative import chain, fk_batch
 from px100_control.paths import data_path
 import yaml
 
@@ -294,7 +295,6 @@ def load_scene(name_or_path: str, robot=None) -> Scene:
 @functools.lru_cache(maxsize=32)
 def _workspace(model) -> np.ndarray:
     """Return (k, 3) end-effector positions of random in-limit configurations (cached)."""
-    from px100_control.kinematics.iterative import chain, fk_batch
     return fk_batch(chain(model), model.random_configurations(4000, rng=7))[:, :3, 3]
 
 

@@ -386,7 +386,7 @@ def test_scalar_fast_path_equals_reference_algebra(name):
 @pytest.mark.parametrize('name', ['px100', 'mobile_px100'])
 def test_scalar_pitch_request_equals_solve_ik(name):
     """
-    solve_pitch_scalar (the ik_service hot path) gives solve_ik's 'pitch' answer exactly.
+    solve_pitch_scalar (solve_ik's default 'pitch' path) gives the general path's answer exactly.
 
     1,500 FK targets, a third with random roll and yaw the arm cannot reach, seeds from other
     configurations: same solutions in the same order (1e-12), same dropped roll/yaw and
@@ -405,12 +405,19 @@ def test_scalar_pitch_request_equals_solve_ik(name):
         seed = Q[(i * 7) % len(Q)]
         fast = solve_pitch_scalar(model, *T[:3, 3].tolist(), T[:3, :3].tolist(),
                                   seed.tolist())
-        ref = solve_ik(model, T, mode='pitch', q_seed=seed)
+        ref = solve_ik(model, T, mode='pitch', q_seed=seed, method='analytic')
         if fast is None:
             declined += 1
             assert not ref.success, (i, ref.solutions)
             continue
-        sols, pe, oe, roll, yaw, flipped = fast
+        default = solve_ik(model, T, mode='pitch', q_seed=seed)
+        assert default.success and len(default.solutions) == len(ref.solutions)
+        assert default.details == ref.details or {
+            k: v for k, v in ref.details.items() if k not in ('candidates', 'in_limits')} == \
+            default.details
+        sols, pe, oe, roll, yaw, flipped, (pitch, yaw_forced) = fast
+        assert pitch == pytest.approx(ref.details['pitch'], abs=1e-12)
+        assert yaw_forced == pytest.approx(ref.details['yaw'], abs=1e-12)
         assert ref.success and len(sols) == len(ref.solutions)
         for a, b in zip(sols, ref.solutions):
             np.testing.assert_allclose(a, b, atol=1e-12)

@@ -82,3 +82,18 @@ def test_trajectory_shape_refuses_truncated_or_foreign_bytes():
         cdr.trajectory_shape(b'\x00\x00\x00\x00' + data[4:])    # big-endian CDR header
     with pytest.raises(ValueError):
         cdr.trajectory_shape(data[:4] + b'\x00' * 8 + b'\xff\xff\xff\x7f')   # 2 G names
+
+
+def test_pose_stamped_reader_matches_rclpy():
+    """wire.cdr.read_pose_stamped reads rclpy's bytes; what it cannot read it declines (None)."""
+    from geometry_msgs.msg import PoseStamped
+    from px100_control.wire.cdr import read_pose_stamped
+    from rclpy.serialization import serialize_message
+    assert cdr.pose_stamped_matches_rclpy()
+    msg = PoseStamped()
+    msg.header.frame_id = 'px100/base_link'
+    msg.pose.position.x = 0.25
+    raw = serialize_message(msg)
+    assert read_pose_stamped(raw)[:3] == (0, 0, 'px100/base_link')
+    assert read_pose_stamped(b'\x00\x00' + raw[2:]) is None        # big-endian header
+    assert read_pose_stamped(raw[:40]) is None                       # truncated

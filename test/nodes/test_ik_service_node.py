@@ -286,12 +286,12 @@ def test_burst_answers_equal_solve_ik(fresh):
             assert int(status_values(status)['solutions']) == len(ref.solutions)
 
 
-def test_batched_fast_path_matches_the_general_solver(ros_ctx):
-    """In-process: _solve_fast (one vectorised call) replies exactly as _solve_one does."""
+def test_node_replies_with_solve_ik(ros_ctx):
+    """In-process: every reply is solve_ik's answer (q, level, solutions, method, dropped roll)."""
+    from px100_control.kinematics.solve import solve_ik
     from px100_control.ros.ik_service_node import IkServiceNode
     node = IkServiceNode(context=ros_ctx)
     try:
-        assert node._batch_ready
         replies = []
         node._reply = lambda stamp, q, level, message, values: replies.append(
             (stamp, None if q is None else np.array(q), level, message, dict(values)))
@@ -302,23 +302,21 @@ def test_batched_fast_path_matches_the_general_solver(ros_ctx):
         T_roll[:3, :3] = T_roll[:3, :3] @ rot_x(0.2)
         targets.append(T_roll)
         seed = np.array([0.3, -0.4, 0.5, 0.1])
-        items = [(k, T) for k, T in enumerate(targets)]
-        node._solve_fast(items, seed)
-        fast = {r[0]: r for r in replies}
-        replies.clear()
-        for k, T in items:
+        for k, T in enumerate(targets):
             node._solve_one(k, T, 'pitch', seed)
-        slow = {r[0]: r for r in replies}
-        assert fast.keys() == slow.keys() == set(range(len(targets)))
-        for k in slow:
-            f, s = fast[k], slow[k]
-            assert f[2:4] == s[2:4], (k, f[3], s[3])
-            if s[1] is None:
-                assert f[1] is None
-            else:
-                np.testing.assert_allclose(f[1], s[1], atol=1e-12)
-                for key in ('method', 'iterations', 'solutions', 'mode'):
-                    assert f[4][key] == s[4][key], (k, key)
+        assert [r[0] for r in replies] == list(range(len(targets)))
+        for (_, q, level, message, values), T in zip(replies, targets):
+            ref = solve_ik(MODEL, T, mode='pitch', q_seed=seed, method='analytic')
+            assert (level == OK) == ref.success, message
+            if not ref.success:
+                assert q is None and message == ref.reason
+                continue
+            np.testing.assert_allclose(q, ref.q, atol=1e-12)
+            assert values['method'] == ref.method and values['iterations'] == '0'
+            assert int(values['solutions']) == len(ref.solutions)
+            assert float(values['unreachable_roll']) == pytest.approx(
+                ref.details['unreachable_roll'], abs=1e-9)
+        assert 'warning' in replies[-1][3]          # the dropped roll of T_roll is named
     finally:
         node.destroy_node()
 

@@ -42,6 +42,8 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
+from px100_control.kinematics.se3 import exp_so3
+from px100_control.models.urdf_chain import load_urdf
 
 GRAVITY = 9.81
 _I3 = np.eye(3)
@@ -486,7 +488,6 @@ def _origin(x) -> np.ndarray:
 
 def _joint_transform(joint, value: float) -> np.ndarray:
     """Return the (4, 4) motion of a URDF joint at a value (rad or m), in the joint frame."""
-    from px100_control.kinematics.se3 import exp_so3
     T = np.eye(4)
     if joint.type in ('revolute', 'continuous'):
         axis = np.array(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
@@ -532,7 +533,6 @@ def chain_dynamics_from_urdf(urdf_xml: str, base_frame: str, joint_names: Sequen
     :param fixed_values: values of non-arm joints to freeze at (others: 0 or mid-range)
     :raises RobotModelError: no inertial data on any moving link, or broken joints
     """
-    from px100_control.models.urdf_chain import load_urdf
     urdf = load_urdf(urdf_xml)
     arm = list(joint_names)
     values = _nominal_values(urdf, set(arm), fixed_values or {})

@@ -18,6 +18,12 @@ mode with the free angles already chosen by the secondary task toward q_nominal)
 ``solve_batch(model, targets, q_seed=None, check_limits=True, return_all=False)`` (vectorised
 ``solve_ik_batch``); ``reach_margin(model, p, pitch=None) -> float`` [m] (``is_reachable``).
 In 'pitch' mode ``solve_ik`` passes the target with its yaw already forced (``pitch_target``).
+
+The default path of ``solve_ik`` (closed forms first, plain floats) uses, when present:
+``candidates_rows(model, T_rows, mode='full'[, limits]) -> list of lists`` (the 'full'
+candidates of a pose given as 4 rows of 4 floats; with ``prunes_by_limits = True`` it also takes
+(lower, upper) and may leave out candidates outside them), or, for a redundant arm,
+``ik_fast(model, T_rows, q_seed) -> (q or None, tried)`` (one in-limit solution near the seed).
 """
 import importlib
 from types import ModuleType

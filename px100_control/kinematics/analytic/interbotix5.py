@@ -27,7 +27,8 @@ from typing import List, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
-from px100_control.kinematics.trig_equations import solve_type8, wrap_angle
+from px100_control.kinematics.analytic import px100
+from px100_control.kinematics.kernels import wrap_angle
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
 complete = True
@@ -121,12 +122,16 @@ def geometry(model) -> ArmPlane:
     return g
 
 
-def waist_angles(wx: float, wy: float, R: np.ndarray) -> List[float]:
-    """Return the two waist angles [rad] putting the wrist point (wx, wy) in the arm plane."""
+def waist_angles(wx: float, wy: float, R) -> List[float]:
+    """
+    Return the two waist angles [rad] putting the wrist point (wx, wy) in the arm plane.
+
+    ``R``: the target rotation (3 rows of 3, nested lists or an array).
+    """
     if wx * wx + wy * wy > 1e-24:
         a = math.atan2(wy, wx)
-    elif R[0, 0] * R[0, 0] + R[1, 0] * R[1, 0] > 1e-24:
-        a = math.atan2(R[1, 0], R[0, 0])   # wrist on the waist axis: face the tool x axis
+    elif R[0][0] * R[0][0] + R[1][0] * R[1][0] > 1e-24:
+        a = math.atan2(R[1][0], R[0][0])   # wrist on the waist axis: face the tool x axis
     else:
         a = 0.0
     return [wrap_angle(a), wrap_angle(a + math.pi)]
@@ -139,31 +144,54 @@ def planar_solutions(g: ArmPlane, t1: float, wx: float, wy: float, wz: float,
 
     ``tol``: relative slack on the reach (larger for initial guesses that get refined).
     """
-    r = math.cos(t1) * wx + math.sin(t1) * wy
+    X = math.cos(t1) * wx + math.sin(t1) * wy - g.x1
+    Z = wz - g.z1
+    L1, L2 = g.L1, g.L2
+    # the type 8 equation (trig_equations.solve_type8) in closed form: cos b from the law of
+    # cosines, a = atan2(Z, X) - atan2(L2 sin b, L1 + L2 cos b)
+    d2 = X * X + Z * Z
+    cb = (d2 - L1 * L1 - L2 * L2) / (2.0 * L1 * L2)
+    if cb > 1.0 or cb < -1.0:
+        if abs(cb) - 1.0 > tol * max(1.0, d2 / (2.0 * L1 * L2)):
+            return []
+        cb = 1.0 if cb > 0.0 else -1.0
+    sb = math.sqrt(1.0 - cb * cb)
+    base = math.atan2(Z, X)
     out = []
-    for a, b in solve_type8(g.L1, g.L2, r - g.x1, wz - g.z1, tol=tol):
+    for s in ((sb, -sb) if sb > 0.0 else (0.0,)):
+        b = math.atan2(s, cb)
+        a = base - math.atan2(L2 * s, L1 + L2 * cb)
         out.append((g.b1 - a, g.b2 - g.b1 - b))
     return out
 
 
-def _solve_pose(g: ArmPlane, T: np.ndarray) -> List[List[float]]:
-    R, p = T[:3, :3], T[:3, 3]
-    wx, wy, wz = p - g.Lt * R[:, 0]
+def rows_of(T) -> Tuple[list, list]:
+    """Return (R as 3 rows of 3 floats, p as 3 floats) of a (4, 4) pose (array or rows)."""
+    L = T.tolist() if hasattr(T, 'tolist') else T
+    return [L[0][:3], L[1][:3], L[2][:3]], [L[0][3], L[1][3], L[2][3]]
+
+
+def _solve_pose(g: ArmPlane, R, p) -> List[List[float]]:
+    """Return the closed-form branches of a pose: R 3 rows of 3, p (x, y, z) [m]."""
+    (r00, r01, r02), (r10, r11, r12), (r20, _, _) = R
+    wx, wy, wz = p[0] - g.Lt * r00, p[1] - g.Lt * r10, p[2] - g.Lt * r20
     out = []
     s = g.signs
     for t1 in waist_angles(wx, wy, R):
         c, sn = math.cos(t1), math.sin(t1)
         # R' = Rz(-t1) R = Ry(phi) Rx(rho) when reachable
-        r00 = c * R[0, 0] + sn * R[1, 0]
-        r11 = -sn * R[0, 1] + c * R[1, 1]
-        r12 = -sn * R[0, 2] + c * R[1, 2]
-        phi = math.atan2(-R[2, 0], r00)
-        rho = math.atan2(-r12, r11)
+        phi = math.atan2(-r20, c * r00 + sn * r10)
+        rho = math.atan2(sn * r02 - c * r12, -sn * r01 + c * r11)
         for g2, g3 in planar_solutions(g, t1, wx, wy, wz):
             g4 = phi - g2 - g3
             out.append([s[0] * t1, wrap_angle(s[1] * g2), wrap_angle(s[2] * g3),
                         wrap_angle(s[3] * g4), wrap_angle(s[4] * rho)])
     return out
+
+
+def candidates_rows(model, T_rows, mode: str = 'full') -> List[List[float]]:
+    """Return the 'full'/'pitch' candidates of ``candidates`` as lists (plain floats)."""
+    return _solve_pose(geometry(model), *rows_of(T_rows))
 
 
 def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
@@ -176,7 +204,7 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     g = geometry(model)
     T = np.asarray(T_target, dtype=float)
     if mode in ('full', 'pitch'):
-        return np.array(_solve_pose(g, T), dtype=float).reshape(-1, 5)
+        return np.array(_solve_pose(g, *rows_of(T)), dtype=float).reshape(-1, 5)
     if mode != 'position':
         raise ValueError(f'unknown IK mode {mode!r}')
     p = T[:3, 3]
@@ -189,15 +217,15 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
         Tk = np.eye(4)
         Tk[:3, :3] = [[ca * cp, -sa, ca * sp], [sa * cp, ca, sa * sp], [-sp, 0.0, cp]]
         Tk[:3, 3] = p
-        out += _solve_pose(g, Tk)
+        out += _solve_pose(g, *rows_of(Tk))
     return np.array(out, dtype=float).reshape(-1, 5)
 
 
 @functools.lru_cache(maxsize=64)
 def _arm4(model):
     """Return the 4-joint sub-model (waist + three pitch joints) of a 5-DOF model."""
-    from px100_control.models.robot_model import RobotModel
-    return RobotModel(
+    # the model's own class (the models layer sits above kinematics)
+    return type(model)(
         name=f'{model.name}:arm4', joint_names=tuple(model.joint_names[:4]),
         joint_types=tuple(model.joint_types[:4]), S_list=np.asarray(model.S_list)[:, :4],
         M=np.asarray(model.M), lower=np.asarray(model.lower)[:4],
@@ -216,7 +244,6 @@ def position_solutions(model, T_target: np.ndarray, q_nominal=None,
     (the free pitch minimising |q - q_nominal| on every branch); wrist_rotate = q_nominal's value
     (wrapped into its limits), which minimises its own term exactly.
     """
-    from px100_control.kinematics.analytic import px100
     geometry(model)
     qn = np.asarray(model.home if q_nominal is None else q_nominal, dtype=float)
     Q4 = px100.position_solutions(_arm4(model), T_target, qn[:4], check_limits=check_limits)
@@ -270,6 +297,7 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return ''
 
 
-__all__ = ['candidates', 'unreachable_reason', 'position_solutions', 'geometry',
+__all__ = ['candidates', 'candidates_rows', 'rows_of', 'unreachable_reason',
+           'position_solutions', 'geometry',
            'plane_geometry', 'ArmPlane',
            'waist_angles', 'planar_solutions', 'complete']

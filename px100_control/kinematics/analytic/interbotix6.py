@@ -31,11 +31,15 @@ from px100_control.errors import RobotModelError
 from px100_control.kinematics.analytic.interbotix5 import (ArmPlane, planar_solutions,
                                                            plane_geometry,
                                                            position_reach_words, reach_words,
-                                                           waist_angles)
-from px100_control.kinematics.trig_equations import wrap_angle
+                                                           rows_of, waist_angles)
+from px100_control.kinematics.iterative import chain, fk_and_jacobian
+from px100_control.kinematics.kernels import wrap_angle
+from px100_control.kinematics.se3 import log_so3
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
 complete = True
+#: candidates_rows takes the joint limits and leaves out arm branches outside them
+prunes_by_limits = True
 
 _EXACT = 1e-12          # wrist axes offset below which the closed form is exact [m]
 _MAX_OFFSET = 5e-3      # offsets up to this are handled by guess + refinement [m]
@@ -57,52 +61,78 @@ def is_exact(model) -> bool:
     return geometry(model).offset <= _EXACT
 
 
-def _wrist_xyx(Rw: np.ndarray) -> List[tuple]:
-    """Return [(a, b, c)] with Rx(a) Ry(b) Rx(c) = Rw, both branches (b and -b)."""
-    cb = max(-1.0, min(1.0, Rw[0, 0]))
-    sb = math.hypot(Rw[0, 1], Rw[0, 2])
+def _wrist_xyx(Rw) -> List[tuple]:
+    """Return [(a, b, c)] with Rx(a) Ry(b) Rx(c) = Rw (3 rows of 3), both branches (b, -b)."""
+    (w00, w01, w02), (w10, w11, _), (w20, w21, _) = Rw
+    cb = max(-1.0, min(1.0, w00))
+    sb = math.hypot(w01, w02)
     out = []
     if sb > 1e-10:
         for sgn in (1.0, -1.0):
             s = sgn * sb
-            b = math.atan2(s, Rw[0, 0])
-            a = math.atan2(Rw[1, 0] / s, -Rw[2, 0] / s)
-            c = math.atan2(Rw[0, 1] / s, Rw[0, 2] / s)
+            b = math.atan2(s, w00)
+            a = math.atan2(w10 / s, -w20 / s)
+            c = math.atan2(w01 / s, w02 / s)
             out.append((a, b, c))
     elif cb > 0:
         # b = 0: Rx(a + c); keep a = 0
-        out.append((0.0, 0.0, math.atan2(Rw[2, 1], Rw[1, 1])))
+        out.append((0.0, 0.0, math.atan2(w21, w11)))
     else:
         # b = pi: Rx(a - c) Ry(pi); keep a = 0
-        out.append((0.0, math.pi, -math.atan2(Rw[2, 1], Rw[1, 1])))
+        out.append((0.0, math.pi, -math.atan2(w21, w11)))
     return out
 
 
-def _solve_pose(g: ArmPlane, T: np.ndarray) -> List[List[float]]:
-    R, p = T[:3, :3], T[:3, 3]
-    wx, wy, wz = p - g.Lt * R[:, 0]
+def _fits(x: float, lo: float, hi: float) -> bool:
+    """Return True when x, or x +- 2 pi, lies in [lo, hi] (+- 1e-9)."""
+    lo, hi = lo - 1e-9, hi + 1e-9
+    return lo <= x <= hi or lo <= x + 2.0 * math.pi <= hi or lo <= x - 2.0 * math.pi <= hi
+
+
+def _solve_pose(g: ArmPlane, R, p, limits=None) -> List[List[float]]:
+    """
+    Return the closed-form branches of a pose: R 3 rows of 3, p (x, y, z) [m].
+
+    ``limits`` (lower, upper): skip the arm branches whose waist, shoulder or elbow value fits
+    no +-2 pi copy into its limits (their wrist solutions would be dropped anyway).
+    """
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R
+    wx, wy, wz = p[0] - g.Lt * r00, p[1] - g.Lt * r10, p[2] - g.Lt * r20
     s = g.signs
     # a near-spherical wrist only gives guesses: accept a wrist point slightly out of reach
     tol = 1e-10 if g.offset <= _EXACT else 4.0 * g.offset / min(g.L1, g.L2)
     out = []
+    pi = math.pi
     for t1 in waist_angles(wx, wy, R):
         c1, s1 = math.cos(t1), math.sin(t1)
+        q1 = s[0] * t1
+        if limits is not None and not _fits(q1, limits[0][0], limits[1][0]):
+            continue
         for g2, g3 in planar_solutions(g, t1, wx, wy, wz, tol):
+            q2, q3 = wrap_angle(s[1] * g2), wrap_angle(s[2] * g3)
+            if limits is not None and not (_fits(q2, limits[0][1], limits[1][1])
+                                           and _fits(q3, limits[0][2], limits[1][2])):
+                continue
             ph = g2 + g3
             cp, sp = math.cos(ph), math.sin(ph)
-            # (Rz(t1) Ry(ph))^T
-            A = np.array([[c1 * cp, s1 * cp, -sp], [-s1, c1, 0.0], [c1 * sp, s1 * sp, cp]])
-            for a, b, c in _wrist_xyx(A @ R):
-                out.append([s[0] * t1, wrap_angle(s[1] * g2), wrap_angle(s[2] * g3),
-                            wrap_angle(s[3] * a), wrap_angle(s[4] * b),
-                            wrap_angle(s[5] * c)])
+            # (Rz(t1) Ry(ph))^T R, rows a, b, c
+            a0, a1, a2 = c1 * cp, s1 * cp, -sp
+            b0, b1 = -s1, c1
+            k0, k1, k2 = c1 * sp, s1 * sp, cp
+            Rw = ((a0 * r00 + a1 * r10 + a2 * r20, a0 * r01 + a1 * r11 + a2 * r21,
+                   a0 * r02 + a1 * r12 + a2 * r22),
+                  (b0 * r00 + b1 * r10, b0 * r01 + b1 * r11, 0.0),
+                  (k0 * r00 + k1 * r10 + k2 * r20, k0 * r01 + k1 * r11 + k2 * r21, 0.0))
+            for a, b, c in _wrist_xyx(Rw):
+                # atan2 values times +-1 lie in [-pi, pi]: wrapped to (-pi, pi] by hand
+                q4, q5, q6 = s[3] * a, s[4] * b, s[5] * c
+                out.append([q1, q2, q3, pi if q4 == -pi else q4, pi if q5 == -pi else q5,
+                            pi if q6 == -pi else q6])
     return out
 
 
 def _refine(model, Q: np.ndarray, T: np.ndarray, iterations: int = 10) -> np.ndarray:
     """Gauss-Newton polish of guesses for a near-spherical wrist (base-frame pose error)."""
-    from px100_control.kinematics.iterative import chain, fk_and_jacobian
-    from px100_control.kinematics.se3 import log_so3
     c = chain(model)
     out = []
     for q in Q:
@@ -127,7 +157,7 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     g = geometry(model)
     T = np.asarray(T_target, dtype=float)
     if mode in ('full', 'pitch'):
-        Q = np.array(_solve_pose(g, T), dtype=float).reshape(-1, 6)
+        Q = np.array(_solve_pose(g, *rows_of(T)), dtype=float).reshape(-1, 6)
         return Q if g.offset <= _EXACT else _refine(model, Q, T)
     if mode != 'position':
         raise ValueError(f'unknown IK mode {mode!r}')
@@ -141,8 +171,21 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
         Tk = np.eye(4)
         Tk[:3, :3] = [[ca * cp, -sa, ca * sp], [sa * cp, ca, sa * sp], [-sp, 0.0, cp]]
         Tk[:3, 3] = p
-        out += _solve_pose(g, Tk)
+        out += _solve_pose(g, *rows_of(Tk))
     return np.array(out, dtype=float).reshape(-1, 6)
+
+
+def candidates_rows(model, T_rows, mode: str = 'full', limits=None) -> List[List[float]]:
+    """
+    Return the 'full'/'pitch' candidates of ``candidates`` as lists (plain floats).
+
+    ``limits`` (lower, upper): leave out candidates whose arm joints fit no +-2 pi copy into
+    the limits (the rest still need the caller's limit check).
+    """
+    g = geometry(model)
+    if g.offset > _EXACT:
+        return candidates(model, np.array(T_rows, dtype=float), mode).tolist()
+    return _solve_pose(g, *rows_of(T_rows), limits)
 
 
 def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
@@ -154,4 +197,5 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return reach_words(g, T)
 
 
-__all__ = ['candidates', 'unreachable_reason', 'geometry', 'is_exact', 'complete']
+__all__ = ['candidates', 'candidates_rows', 'unreachable_reason', 'geometry', 'is_exact',
+           'complete']

@@ -35,6 +35,7 @@ from typing import Optional
 import numpy as np
 
 from px100_control.errors import RobotModelError
+from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
 
 #: the swivel search may miss narrow feasible intervals: solve_ik keeps its iterative fallback
 complete = False
@@ -62,7 +63,6 @@ class SrsGeometry:
 
 def _fk_geometric(g: SrsGeometry, t: np.ndarray) -> np.ndarray:
     """Return the (4, 4) pose of geometric angles t (for the structure check)."""
-    from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
     Rs = rot_z(t[0]) @ rot_y(t[1]) @ rot_z(t[2])
     R4 = Rs @ rot_x(t[3])
     R = R4 @ rot_z(t[4]) @ rot_x(t[5]) @ rot_z(t[6])
@@ -200,7 +200,6 @@ def swivel_angle(model, q) -> float:
     """Return the swivel angle [rad] of configuration q (as solve_swivel measures it)."""
     g = geometry(model)
     q = np.asarray(q, dtype=float) * g.signs
-    from px100_control.kinematics.se3 import rot_y, rot_z
     T = _fk_geometric(g, q)
     fr = _frame(g, T[:3, :3], T[:3, 3])
     if fr is None:
@@ -282,7 +281,6 @@ def candidates(model, T_target: np.ndarray, mode: str, q_seed=None) -> np.ndarra
     g = geometry(model)
     p = T[:3, 3]
     a = math.atan2(p[1], p[0]) if p[0] * p[0] + p[1] * p[1] > 1e-24 else 0.0
-    from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
     # tool z along +-x, +-y, +-z (facing the target azimuth), then the radial family below
     orientations = [rot_z(a) @ R for R in (np.eye(3), rot_y(math.pi), rot_y(math.pi / 2),
                                            rot_y(-math.pi / 2), rot_x(math.pi / 2),

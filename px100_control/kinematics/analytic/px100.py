@@ -25,6 +25,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
+from px100_control.kinematics.kernels import wrap
 
 #: candidates() returns every closed-form solution: solve_ik needs no iterative fallback.
 complete = True
@@ -68,11 +69,6 @@ class Px100Geometry:
             return float(p[0]), float(p[1]), float(p[2])
         P = self.R_F.T @ (np.asarray(p, dtype=float) - self.origin)
         return float(P[0]), float(P[1]), float(P[2])
-
-
-def _wrap(a: float) -> float:
-    """Return a wrapped to [-pi, pi)."""
-    return (a + math.pi) % _TWO_PI - math.pi
 
 
 @functools.lru_cache(maxsize=64)
@@ -130,7 +126,7 @@ def geometry(model) -> Px100Geometry:
 
 def _waist_values(g: Px100Geometry, t: float, out: list) -> None:
     """Append t wrapped to [-pi, pi) and its +-2 pi copies that fit the waist limits."""
-    t = _wrap(t)
+    t = wrap(t)
     out.append(t)
     if t + _TWO_PI <= g.upper[0] + 1e-9:
         out.append(t + _TWO_PI)
@@ -373,20 +369,11 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     """
     g = geometry(model)
     T = np.asarray(T_target, dtype=float)
+    if mode == 'full':
+        return np.array(_full_rows(g, T.tolist(), T), dtype=float).reshape(-1, 4)
     P0, P1, P2 = g.to_arm_frame(T[:3, 3])
     out: list = []
-    if mode == 'full':
-        G = _tool_plane_rotation(g, T).tolist()
-        if G[0][1] * G[0][1] + G[1][1] * G[1][1] > 1e-24:
-            t = math.atan2(-G[0][1], G[1][1])
-        else:
-            t = math.atan2(P1, P0)
-        phi = math.atan2(-G[2][0], G[2][2])
-        waists: list = []
-        _waist_values(g, t, waists)
-        for t1 in waists:
-            _planar(g, t1, phi, P0, P1, P2, out)
-    elif mode == 'pitch':
+    if mode == 'pitch':
         a, pitch = target_pitch(g, T)
         for t, phi in _pitch_branches(g, P0, P1, pitch, a):
             waists = []
@@ -398,19 +385,52 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
         for k in range(_POSITION_GRID):
             pitch = -math.pi + _TWO_PI * k / _POSITION_GRID
             for t, phi in _pitch_branches(g, P0, P1, pitch, a):
-                _planar(g, _wrap(t), phi, P0, P1, P2, out)
+                _planar(g, wrap(t), phi, P0, P1, P2, out)
     else:
         raise ValueError(f'unknown IK mode {mode!r}')
     return np.array(out, dtype=float).reshape(-1, 4)
+
+
+def _full_rows(g: Px100Geometry, L, T=None) -> list:
+    """
+    Return the 'full' candidates of a pose L (4 rows of 4 floats; T: the same as an array).
+
+    The waist comes from the tool orientation (seed 001), then two elbow signs.
+    """
+    if g.frame_is_base and g.tool_is_identity:
+        P0, P1, P2 = L[0][3], L[1][3], L[2][3]
+        G = L
+    else:
+        T = np.array(L, dtype=float) if T is None else T
+        P0, P1, P2 = g.to_arm_frame(T[:3, 3])
+        G = _tool_plane_rotation(g, T).tolist()
+    if G[0][1] * G[0][1] + G[1][1] * G[1][1] > 1e-24:
+        t = math.atan2(-G[0][1], G[1][1])
+    else:
+        t = math.atan2(P1, P0)
+    phi = math.atan2(-G[2][0], G[2][2])
+    waists: list = []
+    _waist_values(g, t, waists)
+    out: list = []
+    for t1 in waists:
+        _planar(g, t1, phi, P0, P1, P2, out)
+    return out
+
+
+def candidates_rows(model, T_rows, mode: str = 'full') -> list:
+    """Return the candidates of ``candidates`` as lists; T_rows: 4 rows of 4 floats."""
+    if mode == 'full':
+        return _full_rows(geometry(model), T_rows)
+    return candidates(model, np.array(T_rows, dtype=float), mode).tolist()
 
 
 def _branch(g: Px100Geometry, P0: float, P1: float, P2: float, a: float, back: bool,
             sgn: float, pitch: float) -> Optional[tuple]:
     """Return the one solution of a branch (waist side, elbow sign) at a pitch, or None."""
     if back:
-        t1, phi = _wrap(a + math.pi), math.pi - pitch - g.mu
+        t1, phi = wrap(a + math.pi), math.pi - pitch - g.mu
     else:
-        t1, phi = _wrap(a), pitch - g.mu
+        t1, phi = wrap(a), pitch - g.mu
     out: list = []
     _planar(g, t1, phi, P0, P1, P2, out)
     if not out:
@@ -565,7 +585,7 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
             return (f'pose not reachable by a 4-DOF arm: the position is {abs(off):.4g} m off '
                     f'the vertical plane of the tool heading {t:.4g} rad')
         phi = math.atan2(-G[2, 0], G[2, 2])
-        pitch = _wrap(phi + g.mu) + 0.0
+        pitch = wrap(phi + g.mu) + 0.0
         margin = reach_margin(model, T[:3, 3], pitch)
         return _reach_words(margin, f' at pitch {pitch:.4g} rad')
     if mode == 'pitch':

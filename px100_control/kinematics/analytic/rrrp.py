@@ -110,14 +110,15 @@ def _from_q3_q12(P: RrrpParameters, q3: float, q12: float, tx: float, ty: float,
             out.append([q1, wrap_angle(q12 - q1), q3, q4])
 
 
-def _full(P: RrrpParameters, T: np.ndarray) -> List[list]:
-    R = T[:3, :3]
-    t = T[:3, 3] - P.r4 * R[:, 2]        # wrist: fMw = fMe Tz(r4)^-1
-    xz, zz, yx, yy = R[2, 0], R[2, 2], R[0, 1], R[1, 1]
+def _full(P: RrrpParameters, T) -> List[list]:
+    """Return the 'full' candidates of a pose given as 4 rows of 4 floats."""
+    (_, yx, zx, px), (_, yy, zy, py), (xz, _, zz, pz) = T[0], T[1], T[2]
+    # wrist: fMw = fMe Tz(r4)^-1
+    tx, ty, tz = px - P.r4 * zx, py - P.r4 * zy, pz - P.r4 * zz
     out: List[list] = []
     for q3 in solve_type3(1.0, 0.0, xz, 0.0, -1.0, zz):
         for q12 in solve_type3(0.0, 1.0, yx, 1.0, 0.0, yy):
-            _from_q3_q12(P, q3, q12, t[0], t[1], t[2], out)
+            _from_q3_q12(P, q3, q12, tx, ty, tz, out)
     return out
 
 
@@ -174,7 +175,7 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     P = parameters(model)
     T = np.asarray(T_target, dtype=float)
     if mode == 'full':
-        out = _full(P, T)
+        out = _full(P, T.tolist())
     elif mode == 'pitch':
         out = _pitch(P, T)
     elif mode == 'position':
@@ -182,6 +183,13 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
     else:
         raise ValueError(f'unknown IK mode {mode!r}')
     return np.array(out, dtype=float).reshape(-1, 4)
+
+
+def candidates_rows(model, T_rows, mode: str = 'full') -> List[list]:
+    """Return the candidates of ``candidates`` as lists; T_rows: 4 rows of 4 floats."""
+    if mode == 'full':
+        return _full(parameters(model), T_rows)
+    return candidates(model, np.array(T_rows, dtype=float), mode).tolist()
 
 
 def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
@@ -211,4 +219,5 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return ''
 
 
-__all__ = ['candidates', 'unreachable_reason', 'parameters', 'RrrpParameters', 'complete']
+__all__ = ['candidates', 'candidates_rows', 'unreachable_reason', 'parameters',
+           'RrrpParameters', 'complete']

@@ -32,7 +32,7 @@ from typing import List, Tuple
 import numpy as np
 
 from px100_control.errors import RobotModelError
-from px100_control.kinematics.trig_equations import wrap_angle
+from px100_control.kinematics.kernels import wrap_angle
 
 #: every closed-form branch is returned: solve_ik needs no iterative fallback
 complete = True
@@ -118,25 +118,36 @@ def _R03(q1: float, q23: float) -> np.ndarray:
     return np.array([[c1 * c, s1, c1 * s], [s1 * c, -c1, s1 * s], [s, 0.0, -c]])
 
 
-def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
-    """Return every closed-form candidate (k, 4) for a (4, 4) target, before limit filtering."""
+def candidates_rows(model, T_rows, mode: str = 'full') -> List[list]:
+    """Return every closed-form candidate for a pose given as 4 rows of 4 floats."""
     P = parameters(model)
-    T = np.asarray(T_target, dtype=float)
     if mode not in ('full', 'pitch', 'position'):
         raise ValueError(f'unknown IK mode {mode!r}')
+    (r00, r01, _, px), (r10, r11, _, py), (r20, r21, _, pz) = T_rows[0], T_rows[1], T_rows[2]
     out = []
-    for q1, q2, q3 in arm_solutions(P, *T[:3, 3]):
+    for q1, q2, q3 in arm_solutions(P, px, py, pz):
         if mode == 'position':
             q4 = float(model.home[3])
         else:
-            Rp = _R03(q1, q2 + q3).T @ T[:3, :3]
+            # Rp = R03^T R, R03 = [[c1 c, s1, c1 s], [s1 c, -c1, s1 s], [s, 0, -c]]
+            c1, s1, c, s = math.cos(q1), math.sin(q1), math.cos(q2 + q3), math.sin(q2 + q3)
+            p00 = c1 * c * r00 + s1 * c * r10 + s * r20
+            p10 = s1 * r00 - c1 * r10
             if mode == 'full':
                 # nearest rotation about z to R03^T R (equal to it when reachable)
-                q4 = math.atan2(Rp[1, 0] - Rp[0, 1], Rp[0, 0] + Rp[1, 1])
+                p01 = c1 * c * r01 + s1 * c * r11 + s * r21
+                p11 = s1 * r01 - c1 * r11
+                q4 = math.atan2(p10 - p01, p00 + p11)
             else:
-                q4 = math.atan2(Rp[1, 0], Rp[0, 0])
+                q4 = math.atan2(p10, p00)
         out.append([q1, q2, q3, wrap_angle(q4)])
-    return np.array(out, dtype=float).reshape(-1, 4)
+    return out
+
+
+def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
+    """Return every closed-form candidate (k, 4) for a (4, 4) target, before limit filtering."""
+    rows = np.asarray(T_target, dtype=float).tolist()
+    return np.array(candidates_rows(model, rows, mode), dtype=float).reshape(-1, 4)
 
 
 def position_solutions(model, T_target: np.ndarray, q_nominal=None,
@@ -199,6 +210,7 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return ''
 
 
-__all__ = ['candidates', 'unreachable_reason', 'parameters', 'arm_solutions',
+__all__ = ['candidates', 'candidates_rows', 'unreachable_reason', 'parameters',
+           'arm_solutions',
            'position_solutions',
            'fk_position', 'RrrrParameters', 'complete']
