@@ -56,7 +56,8 @@ STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
 WATCHDOG_PERIOD = 0.02
 STALL_WARN = 0.25
 #: the parameters the goal executor reads (goal_executor.Settings)
-SETTINGS = [name for name in TRAJECTORY_SERVER.names if name != 'status_history']
+SETTINGS = [name for name in TRAJECTORY_SERVER.names
+            if name not in ('status_history', 'robot_model', 'robot_name')]
 
 
 class TrajectoryServerNode(Node):
