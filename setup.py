@@ -16,6 +16,7 @@ EXECUTABLES = {
     'replay': 'px100_control.ros.replayer_node:main',
     'inspect': 'px100_control.bag.inspect_cli:main',
     'bag_reindex': 'px100_control.bag.reindex:main',
+    'viewer': 'px100_control.ros.viewer_node:main',
 }
 
 

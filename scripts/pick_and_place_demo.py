@@ -336,14 +336,29 @@ class Demo:
                 moving_time=max(0.8, self.mt))
         return self.move(label, line)
 
+    def retreat(self, xyz, pitch) -> bool:
+        """Go back up to the approach pose above xyz [m] (straight up, else joint space)."""
+        if abs(self.bot.arm.get_ee_pose_command()[2, 3] - (xyz[2] + APPROACH_HEIGHT)) < 1e-3:
+            return True
+        return self.line('Approach', xyz[2] + APPROACH_HEIGHT
+                         - self.bot.arm.get_ee_pose_command()[2, 3]) or \
+            self.goto('Approach', xyz, pitch, APPROACH_HEIGHT)
+
     def wait_gripper_still(self) -> None:
-        """Wait (simulated time) until the fingers stopped closing: on the object, or shut."""
+        """
+        Wait (simulated time) until the fingers stopped closing: on the object, or shut.
+
+        Still = the finger gap changed less than GRIPPER_STILL in each of three fresh 0.1 s
+        samples (joint_states younger than 0.1 s: a stalled simulation does not look still).
+        """
         g, core = self.bot.gripper, self.bot.core
-        last = g.get_finger_width()
+        last, still = g.get_finger_width(), 0
         for _ in range(int(GRASP_TIMEOUT / 0.1)):
             core.sleep(0.1)
             width = g.get_finger_width()
-            if abs(width - last) < GRIPPER_STILL:
+            fresh = core.joint_state_age() < 0.1
+            still = still + 1 if fresh and abs(width - last) < GRIPPER_STILL else 0
+            if still >= 3:
                 return
             last = width
 
@@ -370,9 +385,12 @@ class Demo:
         g = self.bot.gripper
         self.trace.phase('open')
         g.release(delay=0.3)
-        ok = self.goto('Approach Pick', grasp, p_pitch, APPROACH_HEIGHT) and \
-            self.line('Pick', -APPROACH_HEIGHT)
-        if not ok:
+        if not self.goto('Approach Pick', grasp, p_pitch, APPROACH_HEIGHT):
+            return False
+        if not self.line('Pick', -APPROACH_HEIGHT):
+            # blocked on the way down (e.g. a finger on a neighbour): back up before going on,
+            # never sweep low through the scene to the next object
+            self.retreat(grasp, p_pitch)
             return False
         self.trace.phase('grasp')
         g.grasp(delay=0.3)
@@ -384,7 +402,50 @@ class Demo:
             self.line('Place', -APPROACH_HEIGHT)
         self.trace.phase('release')
         g.release(delay=0.5)
-        return ok and self.line('Approach Place', APPROACH_HEIGHT)
+        # back up whatever happened before (a Place that stopped short still releases)
+        return self.retreat(place, d_pitch) and ok
+
+
+#: distance [m] of an open finger pad's centre from the grasp point, along the closing direction
+OPEN_PAD = 0.036
+
+
+def footprint_radius(info) -> float:
+    """Return the radius [m] of a body's horizontal footprint (box: half its diagonal)."""
+    sx, sy = info.scale[0], info.scale[1]
+    return 0.5 * (float(np.hypot(sx, sy)) if info.shape == 'box' else float(sx))
+
+
+def clearance(name: str, bodies: dict) -> float:
+    """
+    Return the room [m] the open fingers have around ``name``.
+
+    That is the smallest distance from an open pad's centre to another object's footprint. The
+    fingers close along the horizontal direction perpendicular to the object's bearing from
+    the base (the px100 has no wrist rotation), so an object with a neighbour on that line can
+    only be picked once the neighbour is gone. ``bodies``: name -> WorldMarker of the objects.
+    """
+    p = np.array(bodies[name].position[:2])
+    u = np.array([-p[1], p[0]]) / max(1e-9, float(np.hypot(*p)))
+    room = math.inf
+    for side in (1.0, -1.0):
+        pad = p + side * OPEN_PAD * u
+        for other, info in bodies.items():
+            if other != name:
+                room = min(room, float(np.hypot(*(pad - info.position[:2])))
+                           - footprint_radius(info))
+    return room
+
+
+def pick_order(world, names) -> list:
+    """
+    Return ``names`` in the order to pick them: each time the one whose fingers have the most room.
+
+    Reads the objects' current poses; placed objects are assumed at their targets later on,
+    so the order is planned again before every pick (see main).
+    """
+    bodies = {n: world.get_object_info(n) for n in world.list_objects()}
+    return sorted(names, key=lambda n: -clearance(n, bodies))
 
 
 def parse_targets(text: str) -> dict:
@@ -437,8 +498,12 @@ def main(argv=None) -> int:
     parser.add_argument('--real-time-factor', type=float, default=None,
                         help='simulation speed (default 1; env PX100_REAL_TIME_FACTOR); < 1 '
                              'slows the simulation down on a slow machine')
+    parser.add_argument('--viewer', action='store_true',
+                        help='watch it live in the browser: http://127.0.0.1:8080')
     args = parser.parse_args(argv)
     os.environ.setdefault('MPLBACKEND', 'Agg')
+    if args.viewer:
+        os.environ['PX100_VIEWER'] = '1'      # the in-process bringup adds the viewer node
 
     from px100_control.bag.world import format_placements, placement_verdict
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
@@ -494,8 +559,18 @@ def main(argv=None) -> int:
                 for n in names}
         trace.phase('Home')
         bot.arm.go_to_home_pose(moving_time=max(1.5, args.moving_time))
-        for name in names:
-            demo.move_object(name, goal[name])
+        remaining = list(names)
+        while remaining:     # the object with the most room for the open fingers first
+            bot.world.wait_for_update(0.5)
+            name = pick_order(bot.world, remaining)[0]
+            remaining.remove(name)
+            if not demo.move_object(name, goal[name]):
+                # a move failed (on a loaded machine: the simulation stalled and a move was
+                # aborted): if the object is still where it was, try it once more
+                at = bot.world.get_object_pose(name)[:3, 3]
+                if np.linalg.norm(at - start[name]) < 0.005:
+                    print(f'  {name}: still at its start, trying once more')
+                    demo.move_object(name, goal[name])
         trace.phase('Sleep')
         bot.gripper.release(delay=0.2)
         bot.arm.go_to_sleep_pose(moving_time=max(1.5, args.moving_time), accel_time=0.3)

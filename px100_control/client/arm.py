@@ -24,6 +24,12 @@ Where Interbotix is broken, this does better (documented deviations):
   (moving_time + margin); a setter whose move fails (aborted, driver gone, timeout) logs the
   reason and returns False (``go_to_*_pose`` log it and return None).
 - ``get_joint_velocities`` / ``get_joint_efforts`` return real values (rad/s, N*m).
+- Refused calls: bad arguments are named in the message (``x is NaN``, ``T_sd[0][3] is inf``,
+  ``moving_time is -1.0``), a target far beyond reach hints at the units (``given in mm? the
+  API takes metres``); every refused setter returns False (``(theta, False)`` for the ee-pose
+  setters, None for home/sleep) without moving; ``last_error`` holds the reason of the last
+  refused or failed call and is cleared by every call that succeeds. ``moving_time=0`` is the
+  servos' "no profile": the move runs as fast as the joint velocity limits allow.
 - ``set_ee_cartesian_trajectory`` plans through ``ik/path_request`` and executes the planned
   waypoints as one trajectory; ``wp_moving_time`` / ``wp_accel_time`` (servo profile per waypoint
   in Interbotix) are accepted and unused; ``moving_time`` < ``wp_period`` returns False instead
@@ -51,6 +57,8 @@ SETTLE_ALLOWANCE = 2.0
 #: IK acceptance tolerances of Interbotix (modern_robotics eomg, ev): [rad], [m]
 EOMG = 1e-3
 EV = 1e-3
+#: shortest move sent for moving_time 0 (the servos' "no profile") [s]
+MIN_MOVE_TIME = 0.1
 
 
 class MrDescription:
@@ -83,6 +91,8 @@ class InterbotixArmXSInterface:
         self.group_name = group_name
         self.iterative_update_fk = iterative_update_fk
         self.model = core.model
+        #: distance [m] from the base to the end effector at the home pose (about the reach)
+        self._reach = float(np.linalg.norm(np.asarray(self.model.M, dtype=float)[:3, 3]))
         core._group_name = group_name
         self.robot_des = MrDescription(self.model.S_list, self.model.M)
         self.group_info = self.core.robot_get_robot_info('group', group_name)
@@ -121,6 +131,37 @@ class InterbotixArmXSInterface:
         self.last_error = message
         self.core.get_node().logwarn(message)
 
+    def _note(self, message: str) -> None:
+        """Log a warning about a call that goes ahead (``last_error`` is not touched)."""
+        self.core.get_node().logwarn(message)
+
+    def _begin(self) -> None:
+        """Start a command: ``last_error`` describes only the latest call."""
+        self.last_error = ''
+
+    def _timing_problem(self, moving_time, accel_time) -> Optional[str]:
+        """Return why moving_time / accel_time [s] cannot be used (None: fine or not given)."""
+        for name, value in (('moving_time', moving_time), ('accel_time', accel_time)):
+            if value is None:
+                continue
+            problem = _number_problem(name, value)
+            if problem is None and float(value) < 0.0:
+                problem = f'{name} is {float(value)!r} (must be >= 0 s)'
+            if problem is not None:
+                return problem
+        return None
+
+    def _reach_problem(self, p) -> Optional[str]:
+        """Return a units hint when the point p [m] lies far beyond the arm's reach."""
+        dist = float(np.linalg.norm(np.asarray(p, dtype=float)))
+        ratio = dist / self._reach
+        if ratio < 5.0:
+            return None
+        unit = 'mm' if ratio >= 30.0 else 'cm'
+        return (f'the target is {dist:.3g} m from the base, {ratio:.0f}x the reach of '
+                f'{self.robot_model} (~{self._reach:.2f} m): given in {unit}? the API takes '
+                'metres')
+
     def _error(self, message: str) -> None:
         """Log an error and remember it as ``last_error`` (px100_control extension)."""
         self.last_error = message
@@ -133,24 +174,24 @@ class InterbotixArmXSInterface:
         Set the default (sticky) moving and acceleration times [s].
 
         Written to the group's Profile_Velocity / Profile_Acceleration registers [ms], as the
-        real driver's time-based profile does. Invalid values (non-finite, moving_time <= 0,
-        accel_time < 0) are refused with an error log.
+        real driver's time-based profile does. moving_time 0 means no profile (as fast as the
+        velocity limits allow). Invalid values (not numbers, NaN, inf, negative) are refused
+        with a warning naming them, and the previous values are kept.
         """
+        problem = self._timing_problem(moving_time, accel_time)
+        if problem is not None:
+            self._warn(f'Trajectory time refused: {problem}; keeping moving_time '
+                       f'{self.moving_time} s, accel_time {self.accel_time} s.')
+            return
         if moving_time is not None:
-            mt = _finite(moving_time)
-            if mt is None or mt <= 0.0:
-                self._error(f'moving_time must be > 0 s, got {moving_time!r}; '
-                            'keeping the previous one.')
-            elif mt != self.moving_time:
+            mt = float(moving_time)
+            if mt != self.moving_time:
                 self.moving_time = mt
                 self.core.robot_set_motor_registers('group', self.group_name, 'Profile_Velocity',
                                                     int(mt * 1000))
         if accel_time is not None:
-            at = _finite(accel_time)
-            if at is None or at < 0.0:
-                self._error(f'accel_time must be >= 0 s, got {accel_time!r}; '
-                            'keeping the previous one.')
-            elif at != self.accel_time:
+            at = float(accel_time)
+            if at != self.accel_time:
                 self.accel_time = at
                 self.core.robot_set_motor_registers('group', self.group_name,
                                                     'Profile_Acceleration', int(at * 1000))
@@ -159,7 +200,7 @@ class InterbotixArmXSInterface:
         """Return the (moving_time, accel_time) a command will use (new value or sticky)."""
         mt = _finite(moving_time) if moving_time is not None else self.moving_time
         at = _finite(accel_time) if accel_time is not None else self.accel_time
-        if mt is None or mt <= 0.0:
+        if mt is None or mt < 0.0:
             mt = self.moving_time
         if at is None or at < 0.0:
             at = self.accel_time
@@ -177,16 +218,19 @@ class InterbotixArmXSInterface:
         if q.size != len(names):
             return (f'{q.size} joint positions given, group {self.group_name!r} has '
                     f'{len(names)} joints {names}')
-        if not np.all(np.isfinite(q)):
-            return f'joint positions contain NaN or inf: {q.tolist()}'
+        for name, value in zip(names, q):
+            if not math.isfinite(value):
+                return f"joint '{name}' is {value}"
         info = self.group_info
-        cruise = max(moving_time - min(accel_time, moving_time / 2.0), 1e-9)
+        cruise = moving_time - min(accel_time, moving_time / 2.0)
         for name, value in zip(names, q):
             i = self.info_index_map[name]
             lo, hi = info.joint_lower_limits[i], info.joint_upper_limits[i]
             if not (lo - 1e-9 <= value <= hi + 1e-9):
                 return (f"joint '{name}' = {value:.4f} rad outside its limits "
                         f'[{lo:.4f}, {hi:.4f}]')
+            if cruise <= 0.0:
+                continue  # moving_time 0: as fast as the limits allow (no speed to refuse)
             speed = abs(value - self.joint_commands[i]) / cruise
             vmax = info.joint_velocity_limits[i]
             if speed > vmax + 1e-9:
@@ -233,14 +277,32 @@ class InterbotixArmXSInterface:
         """
         Send the group to ``positions`` [rad] through trajectory_server (no limit check).
 
-        :return: True if the goal was sent (non-blocking) or SUCCEEDED (blocking)
+        :return: True if the goal was sent (non-blocking) or SUCCEEDED (blocking); False when
+            refused (bad timing or positions: reason logged, nothing moves) or failed
         """
+        problem = self._timing_problem(moving_time, accel_time)
+        if problem is None:
+            try:
+                target = [float(p) for p in positions]
+            except (TypeError, ValueError):
+                problem = f'joint positions are not numbers: {positions!r}'
+            else:
+                problem = next((f"joint '{n}' is {v}" for n, v in zip(self.joint_names, target)
+                                if not math.isfinite(v)), None)
+                if problem is None and len(target) != len(self.joint_names):
+                    problem = (f'{len(target)} joint positions given, group '
+                               f'{self.group_name!r} has {len(self.joint_names)} joints')
+        if problem is not None:
+            self._warn(f'Move refused: {problem}.')
+            return False
         self.set_trajectory_time(moving_time, accel_time)
         mt, at = self._times(None, None)
-        target = [float(p) for p in positions]
         duration = self._feasible_duration(target, mt, at)
-        if duration > mt:
-            self._warn(
+        if mt <= 0.0:
+            self.core.get_node().logdebug(
+                f'moving_time 0: the move takes {duration:.2f} s at the joint velocity limits.')
+        elif duration > mt:
+            self._note(
                 f'A {mt:.2f} s move there exceeds the joint velocity limits: this one takes '
                 f'{duration:.2f} s (the servos would cap the speed the same way).')
         self.joint_commands = target
@@ -266,13 +328,20 @@ class InterbotixArmXSInterface:
             d = np.maximum(d, np.abs(q - np.asarray(self.get_joint_positions())))
         ratio = float(np.max(d / np.asarray(self.group_info.joint_velocity_limits)))
         cruise = moving_time - min(accel_time, moving_time / 2.0)
-        if ratio <= cruise:
+        if ratio <= cruise and moving_time > 0.0:
             return moving_time
-        at = accel_time
+        at = min(accel_time, MIN_MOVE_TIME / 2.0) if moving_time <= 0.0 else accel_time
+        if moving_time <= 0.0:
+            t_min = ratio + at if ratio >= at else 2.0 * ratio
+            return max(MIN_MOVE_TIME, 1.02 * t_min)
         t_min = ratio + at if ratio >= at else 2.0 * ratio
         return max(moving_time, 1.02 * t_min)
 
     def _execute(self, names, points, times, accel_time, blocking, duration) -> bool:
+        for check in list(self.core._before_arm_move):
+            warning = check()
+            if warning:
+                self._note(warning)
         try:
             pending = self.core.send_trajectory(names, points, times, accel_time)
         except InterbotixException as exc:
@@ -315,8 +384,10 @@ class InterbotixArmXSInterface:
         :return: True if commanded (and, when blocking, reached); False if refused (limits,
             speed: reason logged) or the move failed
         """
+        self._begin()
+        problem = self._timing_problem(moving_time, accel_time)
         mt, at = self._times(moving_time, accel_time)
-        problem = self._limit_problem(joint_positions, mt, at)
+        problem = problem or self._limit_problem(joint_positions, mt, at)
         if problem is not None:
             self._warn(f'Joint positions refused: {problem}.')
             return False
@@ -326,12 +397,14 @@ class InterbotixArmXSInterface:
     def go_to_home_pose(self, moving_time: Optional[float] = None,
                         accel_time: Optional[float] = None, blocking: bool = True) -> None:
         """Command the arm to its Home pose (all zeros); no limit check, as in Interbotix."""
+        self._begin()
         self.publish_positions([0.0] * self.group_info.num_joints, moving_time, accel_time,
                                blocking)
 
     def go_to_sleep_pose(self, moving_time: Optional[float] = None,
                          accel_time: Optional[float] = None, blocking: bool = True) -> None:
         """Command the arm to its Sleep pose; no limit check, as in Interbotix."""
+        self._begin()
         self.publish_positions(list(self.group_info.joint_sleep_positions), moving_time,
                                accel_time, blocking)
 
@@ -345,17 +418,24 @@ class InterbotixArmXSInterface:
         A given moving_time / accel_time becomes the default of the whole group (as in
         Interbotix). :return: True if commanded (and reached when blocking), else False
         """
+        self._begin()
         if joint_name not in self.info_index_map:
             self._warn(
                 f"Joint '{joint_name}' is not in group '{self.group_name}' {self.joint_names}.")
             return False
+        problem = self._timing_problem(moving_time, accel_time) or \
+            _number_problem(f"position of '{joint_name}'", position)
         mt, at = self._times(moving_time, accel_time)
-        problem = self._limit_problem([position], mt, at, [joint_name])
+        problem = problem or self._limit_problem([position], mt, at, [joint_name])
         if problem is not None:
             self._warn(f'Joint position refused: {problem}.')
             return False
         self.set_trajectory_time(moving_time, accel_time)
         mt, at = self._times(None, None)
+        if mt <= 0.0:  # no profile: as fast as the joint's velocity limit allows
+            i = self.info_index_map[joint_name]
+            d = abs(float(position) - self.joint_commands[i])
+            mt = max(MIN_MOVE_TIME, 1.02 * d / self.group_info.joint_velocity_limits[i] + at)
         self.joint_commands[self.info_index_map[joint_name]] = float(position)
         ok = self._execute([joint_name], [[float(position)]], [mt], at, blocking, mt)
         if not ok:
@@ -385,13 +465,26 @@ class InterbotixArmXSInterface:
         :return: (theta_list (n,) [rad], True) on success; (closest attempt or the current joint
             commands, False) when no valid pose exists (reason logged)
         """
+        self._begin()
         fallback = np.array(self.joint_commands, dtype=float)
-        try:
-            T = np.array(T_sd, dtype=float)
-            if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-                raise ValueError(f'T_sd must be a finite 4x4 matrix, got shape {T.shape}')
-        except (TypeError, ValueError) as exc:
-            self._warn(f'No valid pose could be found. Will not execute ({exc})')
+        problem = self._timing_problem(moving_time, accel_time)
+        T = None
+        if problem is None:
+            try:
+                T = np.array(T_sd, dtype=float)
+            except (TypeError, ValueError):
+                problem = f'T_sd is not a matrix of numbers: {T_sd!r}'
+        if problem is None and T.shape != (4, 4):
+            problem = f'T_sd must be a 4x4 matrix, got shape {T.shape}'
+        if problem is None:
+            bad = np.argwhere(~np.isfinite(T))
+            if bad.size:
+                i, j = (int(v) for v in bad[0])
+                problem = f'T_sd[{i}][{j}] is {T[i, j]}'
+        if problem is None:
+            problem = self._reach_problem(T[:3, 3])
+        if problem is not None:
+            self._warn(f'No valid pose could be found. Will not execute ({problem}).')
             return fallback, False
         try:
             reply = self.core.request_ik(T)
@@ -434,6 +527,14 @@ class InterbotixArmXSInterface:
         On arms with fewer than 6 joints (and whenever yaw is None) yaw = atan2(y, x).
         :return: (theta_list, success) as set_ee_pose_matrix
         """
+        values = (('x', x), ('y', y), ('z', z), ('roll', roll), ('pitch', pitch)) + \
+            ((('yaw', yaw),) if yaw is not None else ())
+        problem = next((pr for pr in (_number_problem(n, v) for n, v in values) if pr), None)
+        if problem is not None:
+            self._begin()
+            self._warn(f'No valid pose could be found. Will not execute ({problem}).')
+            return np.array(self.joint_commands, dtype=float), False
+        x, y, z, roll, pitch = (float(v) for _, v in values[:5])
         if self.group_info.num_joints < 6 or yaw is None:
             yaw = math.atan2(y, x)
         T_sd = np.eye(4)
@@ -465,6 +566,16 @@ class InterbotixArmXSInterface:
         Always blocks. A given moving_time becomes the new default.
         :return: True if the whole line was planned (IK, limits, speed) and executed
         """
+        self._begin()
+        values = (('x', x), ('y', y), ('z', z), ('roll', roll), ('pitch', pitch), ('yaw', yaw),
+                  ('wp_period', wp_period))
+        problem = next((pr for pr in (_number_problem(n, v) for n, v in values) if pr), None) \
+            or self._timing_problem(moving_time, None)
+        if problem is None:
+            problem = self._reach_problem([x, y, z])
+        if problem is not None:
+            self._warn(f'Trajectory will not be executed ({problem}).')
+            return False
         if self.group_info.num_joints < 6 and (y != 0 or yaw != 0):
             self._warn("'y' and 'yaw' fields must be '0' when working with arms with fewer "
                        'than 6dof.')
@@ -665,6 +776,21 @@ def pose_error_norms(T_current: np.ndarray, T_target: np.ndarray) -> Tuple[float
     """Return (position error [m], orientation error [rad]) between two (4, 4) poses."""
     dp, dw = pose_error(T_current, T_target)
     return float(dp), float(dw)
+
+
+def _number_problem(name: str, value) -> Optional[str]:
+    """Return '<name> is NaN' (inf, not a number) for a bad scalar argument, else None."""
+    if isinstance(value, bool):
+        return f'{name} is a bool ({value}), not a number'
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return f'{name} is not a number: {value!r}'
+    if math.isnan(v):
+        return f'{name} is NaN'
+    if math.isinf(v):
+        return f'{name} is {v}'
+    return None
 
 
 def _finite(value) -> Optional[float]:

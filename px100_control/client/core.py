@@ -14,8 +14,14 @@ ros_interfaces.md), in namespace ``/<robot_name>``:
 - torque through ``sim_driver``'s ``torque_enable`` (std_srvs/SetBool) service.
 
 The xs_sdk services are emulated: robot info from the RobotModel (URDF limits and sleep pose),
-operating modes and the Profile_Velocity / Profile_Acceleration registers kept here (they are
-what the arm's moving_time / accel_time become), PID gains and reboots logged as not applicable.
+the Profile_Velocity / Profile_Acceleration registers kept here (they are what the arm's
+moving_time / accel_time become), PID gains and reboots logged as not applicable. Operating
+modes as xs_sdk's: position modes move through trajectory_server; 'velocity' [rad/s],
+'current' [mA, torque through the XL430 figures, :data:`TORQUE_PER_AMP`] and 'pwm' [+-885]
+put the joints of sim_driver in velocity / torque / duty control (its ``operating_mode.<joint>``
+parameters) and send the commands on ``commands/joint_setpoints``; positions for a joint in
+another mode are refused, never sent as something else. Torque on/off per joint, group or all
+through sim_driver's ``torque_enable.<joint>`` parameters.
 
 Bounded failure: the constructor waits at most ``connect_timeout`` (keyword, or env
 ``PX100_CONNECT_TIMEOUT``, default 10 s) for joint_states and the IK / trajectory peers and then
@@ -42,7 +48,8 @@ from px100_control.client.robot import InterbotixException
 from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
-from px100_control.ros.conversions import matrix_to_pose, stamp_id, stamp_key
+from px100_control.ros.conversions import matrix_to_pose, pose_to_matrix, stamp_id, stamp_key
+from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters
@@ -50,6 +57,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.logging import LoggingSeverity
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -66,6 +74,30 @@ _BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 _RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
 _LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
+_LATCHED_MANY = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+#: Interbotix operating mode -> sim_driver's operating_mode (see robot_set_operating_modes)
+DRIVER_MODES = {'position': '', 'ext_position': '', 'current_based_position': '',
+                'velocity': 'velocity', 'current': 'torque', 'pwm': 'duty'}
+#: the modes in which commands are positions
+POSITION_MODES = ('position', 'ext_position', 'current_based_position')
+#: DYNAMIXEL XL430-W250 figures (ROBOTIS e-Manual, XL430-W250 specifications, at 11.1 V):
+#: stall torque 1.4 N*m at a stall current of 1.3 A, PWM_Limit 885 (= 100 % duty). The
+#: XL430 has no current control mode of its own; 'current' is emulated with its torque
+#: constant, stall torque / stall current = 1.077 N*m/A at the output shaft.
+STALL_TORQUE = 1.4
+STALL_CURRENT_MA = 1300.0
+TORQUE_PER_AMP = STALL_TORQUE / (STALL_CURRENT_MA / 1000.0)
+PWM_LIMIT = 885.0
+
+
+def _active_recorder_dirs() -> List[str]:
+    """Return the bag directories of the Recorders running in this process."""
+    import sys
+    module = sys.modules.get('px100_control.ros.recorder_node')
+    return list(module.active_bag_dirs()) if module is not None else []
 
 
 def env_float(name: str, default: float) -> float:
@@ -147,7 +179,14 @@ class InterbotixRobotXSCore:
         ``PX100_REAL_TIME_FACTOR``, default 1)
     :param connect_timeout: [s] how long to wait for the nodes (env ``PX100_CONNECT_TIMEOUT``,
         default 10; 30 when this call starts them)
+    :param init_node: ROS 1 argument, accepted and unused (the global node always exists)
+    :param joint_state_topic: ROS 1 / standalone-gripper name of topic_joint_states
     :param node_kwargs: extra keyword arguments for the in-process nodes
+    :param recorder: wait before the first command until a recorder records everything: a
+        :class:`px100_control.ros.recorder_node.Recorder` (waits until it is ready), True (waits
+        up to connect_timeout for any recorder of this namespace to announce ``recorder/ready``;
+        env ``PX100_RECORDER=wait``), None (default: waits only for a recorder already visible
+        in the graph), False (never waits)
     """
 
     def __init__(self, robot_model: str, robot_name: Optional[str] = None,
@@ -155,7 +194,12 @@ class InterbotixRobotXSCore:
                  logging_level: LoggingSeverity = LoggingSeverity.INFO,
                  node_name: str = 'interbotix_robot_manipulation', node=None, args=None, *,
                  bringup: Optional[bool] = None, real_time_factor: Optional[float] = None,
-                 connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None):
+                 connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None,
+                 recorder=None, init_node: bool = True, joint_state_topic: Optional[str] = None):
+        if isinstance(topic_joint_states, bool):  # ROS 1: (robot_model, robot_name, init_node)
+            topic_joint_states = 'joint_states'
+        if joint_state_topic is not None:
+            topic_joint_states = joint_state_topic
         try:
             self.model: RobotModel = load_robot(robot_model)
         except Px100Error as exc:
@@ -190,6 +234,13 @@ class InterbotixRobotXSCore:
         self._param_clients: Dict[str, object] = {}
         self._registers: Dict[str, Dict[str, int]] = {}
         self._modes: Dict[str, Tuple[str, str]] = {}
+        #: bag directories announced on recorder/ready (and of a Recorder given to us)
+        self.bag_paths: List[str] = []
+        self._recorder_event = threading.Event()
+        #: called on Ctrl-C after the goals are canceled (e.g. the gripper stops its drive)
+        self._interrupt_hooks: List = []
+        #: called before an arm move; each returns a warning or None (the gripper's timing)
+        self._before_arm_move: List = []
         for j in self.model.joint_names:
             self._registers[j] = {'Profile_Velocity': 2000, 'Profile_Acceleration': 300}
             self._modes[j] = ('position', 'time')
@@ -208,6 +259,7 @@ class InterbotixRobotXSCore:
         self.robot_node = node
         self.robot_node.get_logger().set_level(logging_level)
         _robot.register_robot(self)
+        self._started_bringup = False
         if bringup:
             self._start_bringup(bringup, node_kwargs or {})
             if connect_timeout is None and 'PX100_CONNECT_TIMEOUT' not in os.environ:
@@ -215,8 +267,10 @@ class InterbotixRobotXSCore:
         self._make_interfaces()
         _robot.ensure_spinning(self.robot_node)
         self._wait_for_peers()
+        self._check_duplicates()
         self.js_index_map = {n: i for i, n in enumerate(self.joint_states.name)}
         self._check_ik_mode()
+        self.wait_for_recorder(recorder)
         self.get_node().loginfo(
             f'\n\tRobot Name: {self.robot_name}\n\tRobot Model: {self.robot_model}')
         self.get_node().loginfo('Initialized InterbotixRobotXSCore!')
@@ -224,17 +278,15 @@ class InterbotixRobotXSCore:
     # ------------------------------------------------------------------ setup
     def _start_bringup(self, mode, node_kwargs: dict) -> None:
         from px100_control.client.inprocess import InProcessBringup, ProcessBringup
-        existing = _robot.get_bringup()
-        if existing is not None:
-            if existing.robot_name == self.robot_name:
-                return
-            raise InterbotixException(
-                f"a bringup for '{existing.robot_name}' is already running in this process")
+        if _robot.get_bringup(self.robot_name) is not None:
+            return  # a second client of the same robot (e.g. a standalone gripper) shares it
+        self._refuse_beside_running_nodes()
         cls = ProcessBringup if str(mode).lower() == 'process' else InProcessBringup
         bringup = cls(self.robot_model, self.robot_name,
                       real_time_factor=self.real_time_factor, **node_kwargs)
         bringup.start(context=self.robot_node.context)
-        _robot.set_bringup(bringup)
+        _robot.set_bringup(bringup, self.robot_name)
+        self._started_bringup = True
 
     def topic(self, name: str) -> str:
         """Return the absolute topic/service name ``/<robot_name>/<name>``."""
@@ -277,6 +329,93 @@ class InterbotixRobotXSCore:
         self.srv_reset = n.create_client(Trigger, self.topic('reset'), callback_group=cbg)
         self.srv_cancel = n.create_client(CancelGoal, self.topic('trajectory/cancel'),
                                           callback_group=cbg)
+        self.sub_recorder = n.create_subscription(
+            String, self.topic('recorder/ready'), self._recorder_cb, _LATCHED_MANY,
+            callback_group=cbg)
+
+    def _recorder_cb(self, msg: String) -> None:
+        if msg.data and msg.data not in self.bag_paths:
+            self.bag_paths.append(msg.data)
+        self._recorder_event.set()
+
+    def wait_for_recorder(self, recorder=None, timeout: Optional[float] = None) -> bool:
+        """
+        Wait until a recorder records everything this client sends (see ``recorder``).
+
+        :return: True when a recorder is ready (or none was asked for nor seen)
+        """
+        if recorder is None and os.environ.get('PX100_RECORDER', '').lower() in ('wait', '1'):
+            recorder = True
+        if recorder is False:
+            return True
+        timeout = self.connect_timeout if timeout is None else float(timeout)
+        if recorder is not None and recorder is not True:
+            ok = recorder.wait_ready(timeout)
+            path = getattr(recorder, 'output_dir', '')
+            if path and path not in self.bag_paths:
+                self.bag_paths.append(path)
+        elif recorder is True or self.robot_node.count_publishers(
+                self.topic('recorder/ready')) > 0 or any(
+                i.node_name == 'recorder' for i in
+                self.robot_node.get_subscriptions_info_by_topic(self.topic('trajectory/goal'))):
+            ok = self._recorder_event.wait(timeout if recorder is True else min(timeout, 5.0))
+        else:
+            return True
+        if not ok:
+            self.get_node().logwarn(
+                f'No recorder announced ready on {self.topic("recorder/ready")} within '
+                f'{timeout:.1f} s: the start of this run may be missing from the bag.')
+            return False
+        pubs = [self.pub_goal, self.pub_ik, self.pub_setpoints, self.pub_ik_path]
+        node = getattr(recorder, 'node', None)
+        if node is not None:  # a Recorder of this process: the topics it subscribes
+            pubs = [p for p in pubs if p.topic_name in getattr(node, '_subs', {})]
+        # the recorder is subscribed; now this client must see (discover) and match it, or the
+        # first messages go out before the recorder is among their readers
+        end = time.monotonic() + (timeout if node is not None else min(timeout, 3.0))
+        for pub in pubs:
+            while time.monotonic() < end and not any(
+                    i.node_name == 'recorder' for i in
+                    self.robot_node.get_subscriptions_info_by_topic(pub.topic_name)):
+                time.sleep(0.01)
+            self._await_matched(pub, max(0.0, end - time.monotonic()))
+        return True
+
+    def interrupt(self, settle: float = 0.5) -> str:
+        """
+        Ctrl-C: cancel this client's unfinished goals and stop driven joints; return a report.
+
+        trajectory_server decelerates a canceled goal to rest where the arm is; the report (one
+        line) names the canceled goals, where the arm holds [rad] and the bag directory.
+        """
+        with self._pending_lock:
+            running = [p for p in self._goals.values() if p.status not in TERMINAL]
+        canceled = [p for p in running if self.cancel_goal(p, timeout=0.5)]
+        moded = [j for j in self.model.joint_names if self.mode_of(j) not in POSITION_MODES]
+        if moded:  # velocity / current / pwm joints: position mode holds them where they are
+            node = self._peer_node('commands/joint_setpoints', 'sim_driver')
+            if node is not None:
+                self.set_remote_parameters(node, {f'operating_mode.{j}': '' for j in moded}, 0.5)
+        for hook in list(self._interrupt_hooks):
+            try:
+                hook()
+            except Exception:  # noqa: B902 - the other hooks still run
+                pass
+        end = time.monotonic() + settle
+        while any(p.status not in TERMINAL for p in canceled) and time.monotonic() < end:
+            time.sleep(0.01)
+        name = self.robot_name or self.robot_model
+        what = ('canceled goal ' + ', '.join(stamp_id(_time_of(p.key)) for p in canceled)
+                if canceled else 'no goal was running')
+        try:
+            q = self.joint_positions(self.model.joint_names)
+            where = ', holding at ' + ' '.join(
+                f'{j}={v:.3f}' for j, v in zip(self.model.joint_names, q)) + ' rad'
+        except Exception:  # noqa: B902 - no joint states: say so
+            where = ', joint states unknown'
+        bags = self.bag_paths or _active_recorder_dirs()
+        bag = ('bag: ' + ', '.join(bags)) if bags else 'no bag recorded'
+        return f'{name} {what}{where}; {bag}'
 
     def _missing_peers(self) -> List[str]:
         """Return what is still missing, in words (empty when everything is there)."""
@@ -314,7 +453,7 @@ class InterbotixRobotXSCore:
                 self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(missing))
                 next_log = now + 2.0
             time.sleep(0.02)
-        bringup = _robot.get_bringup()
+        bringup = _robot.get_bringup(self.robot_name)
         problems = bringup.problems() if hasattr(bringup, 'problems') else ''
         if problems:
             missing.append(f'bringup processes: {problems}')
@@ -326,6 +465,50 @@ class InterbotixRobotXSCore:
             '(or PX100_BRINGUP=1) to run them in this process.')
         self.get_node().logerror(message)
         raise InterbotixException(message)
+
+    def _refuse_beside_running_nodes(self, discovery: float = 1.0) -> None:
+        """
+        Raise before starting nodes where a driver or trajectory_server already runs.
+
+        The graph is watched for ``discovery`` [s] (other processes' nodes take a moment to
+        be discovered by a new node; found ones end the wait at once).
+        """
+        end = time.monotonic() + discovery
+        while True:
+            peers = live_peers(self.robot_node, self.ns or '/')
+            names = peers['drivers'] + peers['trajectory_servers']
+            if (names and not has_unknown(peers)) or time.monotonic() >= end:
+                break
+            time.sleep(0.05)
+        if names:
+            message = (f"nodes already run under '{self.ns or '/'}' ({', '.join(names)}): this "
+                       'script does not start its own beside them (bringup=True would put two '
+                       'drivers on the same joints); connect to those instead (bringup=False, '
+                       'PX100_BRINGUP unset) or stop them.')
+            self.get_node().logerror(message)
+            raise InterbotixException(message)
+
+    def duplicates(self) -> str:
+        """Return a sentence naming a second driver / trajectory_server here ('' if none)."""
+        end = time.monotonic() + 1.0
+        peers = live_peers(self.robot_node, self.ns or '/')
+        while has_unknown(peers) and time.monotonic() < end:
+            time.sleep(0.05)  # a node being discovered: wait for its name
+            peers = live_peers(self.robot_node, self.ns or '/')
+        return duplicates_message(peers, self.ns)
+
+    def _check_duplicates(self) -> None:
+        """Refuse to run beside the nodes this call started twice; warn otherwise."""
+        problem = self.duplicates()
+        if not problem:
+            return
+        if self._started_bringup:
+            message = (f'{problem} This script started its own nodes (bringup=True) although '
+                       f"nodes already run under '{self.ns or '/'}': connect to those instead "
+                       '(bringup=False, PX100_BRINGUP unset).')
+            self.get_node().logerror(message)
+            raise InterbotixException(message)
+        self.get_node().logwarn(problem)
 
     def _teardown(self) -> None:
         """Release waiters (called by robot_shutdown)."""
@@ -458,7 +641,6 @@ class InterbotixRobotXSCore:
 
     def measured_ee_pose(self) -> Optional[np.ndarray]:
         """Return the latest (4, 4) pose published on ``ee_pose`` by sim_driver (or None)."""
-        from px100_control.ros.conversions import pose_to_matrix
         msg = self.ee_pose
         if msg is None:
             return None
@@ -475,8 +657,15 @@ class InterbotixRobotXSCore:
         :param points: (k, len(joint_names)) positions [rad]
         :param times: (k,) strictly increasing time_from_start [s]; one point = move there
         :param accel_time: [s] trapezoid ramp time for a one-point goal (None: server default)
-        :raises InterbotixException: no trajectory_server is listening
+        :raises InterbotixException: no trajectory_server is listening; a joint is not in a
+            position mode (its positions would be executed as something else)
         """
+        moded = [f"'{n}' ({self.mode_of(n)})" for n in joint_names
+                 if n in self._modes and self.mode_of(n) not in POSITION_MODES]
+        if moded:
+            raise InterbotixException(
+                f"joints {', '.join(moded)} are not in a position mode: positions are not "
+                "sent (robot_set_operating_modes(..., 'position') first)")
         if self.pub_goal.get_subscription_count() == 0:
             raise InterbotixException(
                 f"no trajectory_server subscribes to '{self.topic('trajectory/goal')}': is "
@@ -639,6 +828,9 @@ class InterbotixRobotXSCore:
             time.sleep(0.01)  # the reason comes on /diagnostics, just after the status
         state = STATUS_NAMES.get(pending.status, 'UNKNOWN')
         reason = pending.reason or 'see the trajectory_server log / /diagnostics'
+        duplicates = self.duplicates()
+        if duplicates:
+            reason += f' ({duplicates})'
         return False, f'goal {gid} ended {state}: {reason}'
 
     def goal_status(self, pending: _Pending) -> str:
@@ -767,13 +959,16 @@ class InterbotixRobotXSCore:
             time.sleep(0.005)
 
     # ------------------------------------------------------------- setpoints
-    def publish_setpoints(self, names: Sequence[str], positions=None, efforts=None) -> None:
-        """Publish a JointState setpoint straight to sim_driver (position and/or effort)."""
+    def publish_setpoints(self, names: Sequence[str], positions=None, efforts=None,
+                          velocities=None) -> None:
+        """Publish a JointState setpoint straight to sim_driver (position, velocity or effort)."""
         msg = JointState()
         msg.header.stamp = self.robot_node.get_clock().now().to_msg()
         msg.name = [str(n) for n in names]
         if positions is not None:
             msg.position = [float(v) for v in positions]
+        if velocities is not None:
+            msg.velocity = [float(v) for v in velocities]
         if efforts is not None:
             msg.effort = [float(v) for v in efforts]
         self._await_matched(self.pub_setpoints)
@@ -799,29 +994,96 @@ class InterbotixRobotXSCore:
 
     def robot_set_operating_modes(self, cmd_type: str, name: str, mode: str,
                                   profile_type: str = 'velocity', profile_velocity: int = 0,
-                                  profile_acceleration: int = 0) -> None:
+                                  profile_acceleration: int = 0) -> bool:
         """
-        Set the operating mode of a group or motor (emulated: remembered, reported by info).
+        Set the operating mode of a group or motor, emulated as xs_sdk does (module docstring).
 
-        The arm is always driven in position mode through trajectory_server, the gripper in
-        effort (pwm/current) or position mode; other modes are refused with an error log.
-        With profile_type 'time', profile_velocity / profile_acceleration [ms] set the
-        Profile_Velocity / Profile_Acceleration registers.
+        'position', 'ext_position', 'current_based_position': positions [rad] through
+        trajectory_server; 'velocity': commands in rad/s; 'current': commands in mA, torque
+        control through the servo model (:data:`TORQUE_PER_AMP`); 'pwm': commands in PWM units
+        (+-885 = full duty). sim_driver switches the joints (parameter
+        ``operating_mode.<joint>``) and they hold. Any other mode is refused with the reason and
+        nothing changes. With profile_type 'time', profile_velocity / profile_acceleration [ms]
+        set the Profile_Velocity / Profile_Acceleration registers.
+        :return: True when applied (Interbotix returns None)
         """
         names = self._names_of(cmd_type, name)
+        if mode not in DRIVER_MODES:
+            self.get_node().logerror(
+                f"Operating mode '{mode}' is not emulated (supported: "
+                f"{', '.join(DRIVER_MODES)}); {cmd_type} '{name}' keeps "
+                f"'{self._modes[names[0]][0]}' and its commands are not executed as "
+                'anything else.')
+            return False
         g = self.model.gripper
+        values = {}
         for j in names:
-            allowed = ('pwm', 'current', 'position') if g is not None and j == g.joint \
-                else ('position', 'ext_position', 'current_based_position')
-            if mode not in allowed:
-                self.get_node().logerror(
-                    f"Operating mode '{mode}' is not emulated for '{j}' (supported: "
-                    f"{', '.join(allowed)}); keeping '{self._modes[j][0]}'.")
-                continue
+            target = DRIVER_MODES[mode]
+            if g is not None and j == g.joint and mode == 'pwm':
+                target = ''  # the gripper's default mode takes its PWM as effort [N*m]
+            values[f'operating_mode.{j}'] = target
+        arm = [j for j in names if g is None or j != g.joint]
+        if arm and any(v for k, v in values.items() if k[len('operating_mode.'):] in arm):
+            self._cancel_running()  # a running move must not fight the new mode
+        node = self._peer_node('commands/joint_setpoints', 'sim_driver')
+        problem = (f"no sim_driver on '{self.topic('commands/joint_setpoints')}'"
+                   if node is None else self.set_remote_parameters(node, values))
+        if problem:
+            self.get_node().logerror(f"Operating mode '{mode}' of {cmd_type} '{name}' not set: "
+                                     f'{problem}')
+            return False
+        for j in names:
             self._modes[j] = (mode, profile_type)
             if profile_type == 'time':
                 self._registers[j]['Profile_Velocity'] = int(profile_velocity)
                 self._registers[j]['Profile_Acceleration'] = int(profile_acceleration)
+        return True
+
+    def _cancel_running(self) -> None:
+        """Cancel this client's unfinished goals and wait (briefly) for them to end."""
+        with self._pending_lock:
+            running = [p for p in self._goals.values() if p.status not in TERMINAL]
+        for p in running:
+            self.cancel_goal(p, timeout=0.5)
+        end = time.monotonic() + 1.0
+        while any(p.status not in TERMINAL for p in running) and time.monotonic() < end:
+            time.sleep(0.01)
+
+    def mode_of(self, joint: str) -> str:
+        """Return the Interbotix operating mode of a joint ('position', 'current', ...)."""
+        return self._modes[joint][0]
+
+    def _effort_commands(self, names: Sequence[str], commands: Sequence[float]) -> None:
+        """
+        Send velocity / current / pwm commands (xs_sdk units) of joints in those modes.
+
+        :raises InterbotixException: a command beyond the servo's range (nothing is sent)
+        """
+        groups: Dict[str, List[Tuple[str, float]]] = {}
+        for j, c in zip(names, commands):
+            groups.setdefault(self.mode_of(j), []).append((j, float(c)))
+        out = []
+        for mode, items in groups.items():
+            if mode == 'velocity':
+                out.append(('velocities', items))
+            elif mode == 'current':
+                for j, c in items:
+                    if abs(c) > STALL_CURRENT_MA:
+                        raise InterbotixException(
+                            f"current {c:g} mA for '{j}' exceeds the XL430-W250's stall "
+                            f'current ({STALL_CURRENT_MA:g} mA): not sent')
+                out.append(('efforts', [(j, c / 1000.0 * TORQUE_PER_AMP) for j, c in items]))
+            elif mode == 'pwm':
+                g = self.model.gripper
+                for j, c in items:
+                    if abs(c) > PWM_LIMIT:
+                        raise InterbotixException(f"PWM {c:g} for '{j}' is beyond the PWM "
+                                                  f'limit +-{PWM_LIMIT:g}: not sent')
+                out.append(('efforts', [
+                    (j, c / PWM_LIMIT * STALL_TORQUE if g is not None and j == g.joint
+                     else c / PWM_LIMIT) for j, c in items]))
+        for kind, items in out:
+            self.publish_setpoints([j for j, _ in items], **{kind: [v for _, v in items]})
 
     def robot_set_motor_pid_gains(self, cmd_type: str, name: str, kp_pos: int, ki_pos: int = 0,
                                   kd_pos: int = 0, k1: int = 0, k2: int = 0, kp_vel: int = 100,
@@ -883,22 +1145,27 @@ class InterbotixRobotXSCore:
     def robot_torque_enable(self, cmd_type: str, name: str, enable: bool,
                             timeout: float = 3.0) -> bool:
         """
-        Torque motors on or off through sim_driver's ``torque_enable`` service.
+        Torque motors on or off: one joint ('single'), a group ('arm') or everything ('all').
 
-        The simulated driver switches the whole robot; a single motor or group other than
-        'all'/'arm' is switched with it (a warning says so). Returns the service's success.
+        Sets sim_driver's ``torque_enable.<joint>`` parameters, so only the addressed joints
+        change (``robot_torque_enable('single', 'gripper', False)`` leaves the arm holding);
+        a joint switched back on holds where it is (call the arm's capture_joint_positions()
+        afterwards, as with Interbotix). Returns True when sim_driver applied it.
         """
         names = self._names_of(cmd_type, name)
-        if set(names) != set(self._names_of('group', 'all')):
-            self.get_node().logwarn(
-                f"sim_driver's torque_enable switches every joint; '{name}' is not "
-                'switched alone.')
-        if not self.srv_torque.wait_for_service(timeout_sec=timeout):
+        node = self._peer_node('commands/joint_setpoints', 'sim_driver')
+        if node is None:
             self.get_node().logerror(
-                f"Failed to find service '{self.topic('torque_enable')}'. Is sim_driver running "
-                f"under namespace '{self.ns or '/'}'?")
+                f"Failed to find sim_driver on '{self.topic('commands/joint_setpoints')}'. Is "
+                f"sim_driver running under namespace '{self.ns or '/'}'?")
             return False
-        return self._call(self.srv_torque, SetBool.Request(data=bool(enable)), timeout)
+        problem = self.set_remote_parameters(
+            node, {f'torque_enable.{j}': bool(enable) for j in names}, timeout)
+        if problem:
+            self.get_node().logerror(f"Torque {'on' if enable else 'off'} of {cmd_type} "
+                                     f"'{name}' failed: {problem}")
+            return False
+        return True
 
     def robot_reboot_motors(self, cmd_type: str, name: str, enable: bool,
                             smart_reboot: bool = False) -> None:
@@ -932,10 +1199,11 @@ class InterbotixRobotXSCore:
 
     def robot_write_commands(self, group_name: str, commands: Sequence[float]) -> None:
         """
-        Command a group (non-blocking), like JointGroupCommand in position mode.
+        Command a group (non-blocking), like JointGroupCommand, in the group's operating mode.
 
-        The move lasts the group's Profile_Velocity register [ms] (time profile), with
-        Profile_Acceleration [ms] ramps, through trajectory_server.
+        Position modes: positions [rad]; the move lasts the Profile_Velocity register [ms]
+        (time profile) with Profile_Acceleration [ms] ramps, through trajectory_server.
+        Velocity: rad/s; current: mA; pwm: PWM units (see robot_set_operating_modes).
         """
         names = self._names_of('group', group_name)
         cmds = [float(c) for c in commands]
@@ -944,8 +1212,22 @@ class InterbotixRobotXSCore:
                 f'Number of commands ({len(cmds)}) does not match the number of joints in group '
                 f"'{group_name}' ({len(names)}). Will not execute.")
             return
+        bad = next((f'command {i} ({names[i]}) is {c}' for i, c in enumerate(cmds)
+                    if not math.isfinite(c)), None)
+        if bad:
+            self.get_node().logerror(f'{bad}. Will not execute.')
+            return
         g = self.model.gripper
-        arm = [(n, c) for n, c in zip(names, cmds) if g is None or n != g.joint]
+        moded = [(n, c) for n, c in zip(names, cmds) if self.mode_of(n) not in POSITION_MODES
+                 and (g is None or n != g.joint)]
+        if moded:
+            try:
+                self._effort_commands([n for n, _ in moded], [c for _, c in moded])
+            except InterbotixException as exc:
+                self.get_node().logerror(f'{exc}. Will not execute.')
+                return
+        arm = [(n, c) for n, c in zip(names, cmds) if (g is None or n != g.joint)
+               and self.mode_of(n) in POSITION_MODES]
         if g is not None and g.joint in names:
             self.robot_write_joint_command(g.joint, cmds[names.index(g.joint)])
         if arm:
@@ -960,31 +1242,59 @@ class InterbotixRobotXSCore:
 
     def robot_write_joint_command(self, joint_name: str, command: float) -> None:
         """
-        Command one motor (non-blocking), like JointSingleCommand.
+        Command one motor (non-blocking), like JointSingleCommand, in its operating mode.
 
-        Gripper in pwm/current mode: ``command`` is PWM, sent as an effort setpoint [N*m];
-        in position mode a position [rad]. An arm joint moves through trajectory_server.
+        Gripper in pwm mode: ``command`` is PWM, sent as an effort setpoint [N*m]
+        (:func:`~px100_control.client.gripper.pwm_to_effort`); current: mA; position: rad. An
+        arm joint in a position mode moves through trajectory_server; velocity / current / pwm
+        as robot_write_commands.
         """
         names = self._names_of('single', joint_name)
+        if not math.isfinite(float(command)):
+            self.get_node().logerror(f"command for '{joint_name}' is {command}. Will not "
+                                     'execute.')
+            return
         g = self.model.gripper
+        mode = self.mode_of(names[0])
         if g is not None and names[0] == g.joint:
             from px100_control.client.gripper import pwm_to_effort
-            if self._modes[g.joint][0] == 'position':
+            if mode in POSITION_MODES:
                 self.publish_setpoints([g.joint], positions=[float(command)])
-            else:
+            elif mode == 'pwm':
+                if abs(float(command)) > PWM_LIMIT:
+                    self.get_node().logerror(f'PWM {command} for the gripper is beyond the PWM '
+                                             f'limit +-{PWM_LIMIT:g}. Will not execute.')
+                    return
                 self.publish_setpoints([g.joint], efforts=[pwm_to_effort(float(command))])
+            else:
+                try:
+                    self._effort_commands([g.joint], [float(command)])
+                except InterbotixException as exc:
+                    self.get_node().logerror(f'{exc}. Will not execute.')
+            return
+        if mode not in POSITION_MODES:
+            try:
+                self._effort_commands([joint_name], [float(command)])
+            except InterbotixException as exc:
+                self.get_node().logerror(f'{exc}. Will not execute.')
             return
         mt, at = self._profile_times(joint_name)
         self.send_trajectory([joint_name], [[float(command)]], [mt], at)
 
-    def robot_write_trajectory(self, cmd_type: str, name: str, traj_type: str,
-                               raw_traj: Sequence[dict]) -> None:
+    def robot_write_trajectory(self, cmd_type: str, name: str, traj_type: str = None,
+                               raw_traj: Sequence[dict] = None, *,
+                               type: str = None) -> None:  # noqa: A002 - ROS 1 name
         """
         Command a position trajectory (non-blocking).
 
+        :param traj_type: 'position' (ROS 1 scripts pass it as ``type=``)
         :param raw_traj: list of ``{t [s]: [positions]}``; a point at t = 0 is taken as the
             start and skipped (trajectory_server starts from the measured state)
         """
+        if traj_type is None:
+            traj_type = type
+        if traj_type is None or raw_traj is None:
+            raise TypeError('robot_write_trajectory() needs traj_type (or type=) and raw_traj')
         names = self._names_of(cmd_type, name)
         if traj_type != 'position':
             self.get_node().logerror(

@@ -6,7 +6,10 @@ script is the only command to run. The nodes come from :func:`px100_control.ros.
 create_nodes` (the same ones ``ros2 run px100_control bringup`` starts), live in the client's
 rclpy context, and spin in their own executor thread (rclpy's EventsExecutor by default, see
 :func:`px100_control.ros.common.make_executor`); :func:`robot_shutdown` stops them.
+``viewer=True`` (or env ``PX100_VIEWER=1``) adds the browser viewer node
+(http://127.0.0.1:8080; ``parameters={'port': N}`` to change).
 """
+import os
 from typing import List, Optional
 
 from px100_control.ros.common import make_executor
@@ -36,10 +39,13 @@ class InProcessBringup:
     :param real_time_factor: simulation speed (sim_driver parameter ``real_time_factor``, when
         the driver declares it)
     :param parameters: extra {name: value} parameters given to every node
+    :param viewer: also run the browser viewer node (default: env ``PX100_VIEWER``)
     """
 
     def __init__(self, robot_model: str = 'px100', robot_name: str = 'px100',
-                 real_time_factor: float = 1.0, parameters: Optional[dict] = None, **kwargs):
+                 real_time_factor: float = 1.0, parameters: Optional[dict] = None,
+                 viewer: Optional[bool] = None, **kwargs):
+        self.viewer = viewer_wanted(viewer)
         self.robot_model = robot_model
         self.robot_name = robot_name
         self.real_time_factor = float(real_time_factor)
@@ -57,18 +63,25 @@ class InProcessBringup:
         kwargs = dict(self.kwargs)
         if context is not None:
             kwargs.setdefault('context', context)
+        if self.robot_name:
+            # nodes in the robot's namespace: several robots per process (or graph) do not
+            # share the node names (and parameter services) /sim_driver, ...
+            kwargs.setdefault('namespace', '/' + self.robot_name.strip('/'))
         if self.real_time_factor == 1.0:
             kwargs.setdefault('parameter_overrides', _overrides(params))
-            self.nodes = list(bringup.create_nodes(**kwargs))
+            self.nodes = list(bringup.create_nodes(viewer=self.viewer, **kwargs))
         else:
             # the driver owns the clock (real_time_factor x wall time, published on /clock);
             # ik_service and trajectory_server follow it with use_sim_time
             self.nodes = []
             try:
-                for cls, extra in ((_node_class('sim_driver'),
-                                    {'real_time_factor': self.real_time_factor}),
-                                   (_node_class('ik_service'), {'use_sim_time': True}),
-                                   (_node_class('trajectory_server'), {'use_sim_time': True})):
+                classes = [(_node_class('sim_driver'),
+                            {'real_time_factor': self.real_time_factor}),
+                           (_node_class('ik_service'), {'use_sim_time': True}),
+                           (_node_class('trajectory_server'), {'use_sim_time': True})]
+                if self.viewer:
+                    classes.append((_node_class('viewer'), {}))
+                for cls, extra in classes:
                     node_kwargs = dict(kwargs)
                     node_kwargs['parameter_overrides'] = _overrides({**params, **extra})
                     self.nodes.append(cls(**node_kwargs))
@@ -104,8 +117,18 @@ def _overrides(values: dict) -> list:
     return [Parameter(k, value=v) for k, v in values.items()]
 
 
+def viewer_wanted(viewer: Optional[bool] = None) -> bool:
+    """Return viewer, or env ``PX100_VIEWER`` (1/true/yes/on) when it is None."""
+    if viewer is not None:
+        return bool(viewer)
+    return os.environ.get('PX100_VIEWER', '').strip().lower() in ('1', 'true', 'yes', 'on')
+
+
 def _node_class(name: str):
     """Return the node class of one of the bringup's executables."""
+    if name == 'viewer':
+        from px100_control.ros.viewer_node import ViewerNode
+        return ViewerNode
     if name == 'sim_driver':
         from px100_control.ros.sim_driver_node import SimDriverNode
         return SimDriverNode
@@ -131,11 +154,14 @@ class ProcessBringup:
                ('trajectory_server', 'px100_control.ros.trajectory_server_node'))
 
     def __init__(self, robot_model: str = 'px100', robot_name: str = 'px100',
-                 real_time_factor: float = 1.0, parameters: Optional[dict] = None, **kwargs):
+                 real_time_factor: float = 1.0, parameters: Optional[dict] = None,
+                 viewer: Optional[bool] = None, **kwargs):
         self.robot_model = robot_model
         self.robot_name = robot_name
         self.real_time_factor = float(real_time_factor)
         self.parameters = dict(parameters or {})
+        self.viewer = viewer_wanted(viewer)
+        self.modules = self.MODULES
         self.procs: List = []
         self.log_paths: List[str] = []
         self._files: List = []
@@ -153,12 +179,16 @@ class ProcessBringup:
             [package_root] + [p for p in env.get('PYTHONPATH', '').split(os.pathsep) if p])
         common = {'robot_model': self.robot_model, 'robot_name': self.robot_name}
         common.update(self.parameters)
-        for name, module in self.MODULES:
+        self.modules = self.MODULES + ((('viewer', 'px100_control.ros.viewer_node'),)
+                                       if self.viewer else ())
+        for name, module in self.modules:
             params = dict(common, **NODE_PARAMETERS.get(name, {}))
             if self.real_time_factor != 1.0:
                 params.update({'real_time_factor': self.real_time_factor}
                               if name == 'sim_driver' else {'use_sim_time': True})
             args = [sys.executable, '-m', module, '--ros-args']
+            if self.robot_name:
+                args += ['-r', f"__ns:=/{self.robot_name.strip('/')}"]
             for key, value in params.items():
                 args += ['-p', f'{key}:={_ros_arg(value)}']
             log = tempfile.NamedTemporaryFile(prefix=f'px100_{name}_', suffix='.log',
@@ -171,7 +201,7 @@ class ProcessBringup:
     def problems(self) -> str:
         """Return what went wrong with processes that exited (their last log lines), or ''."""
         out = []
-        for (name, _), proc, path in zip(self.MODULES, self.procs, self.log_paths):
+        for (name, _), proc, path in zip(self.modules, self.procs, self.log_paths):
             if proc.poll() is not None:
                 with open(path, encoding='utf-8', errors='replace') as f:
                     tail = f.read().strip().splitlines()[-3:]

@@ -23,9 +23,12 @@ child processes instead, which share no interpreter lock with the script);
 ``connect_timeout`` [s] bounds the wait for the nodes (env ``PX100_CONNECT_TIMEOUT``, default
 10 s) before an InterbotixException names what is missing. ROS 1 scripts work too: they never
 call ``robot_startup()`` (the node spins from construction on), may pass ``init_node`` /
-``use_gripper`` / ``joint_state_topic``, and use ``bot.dxl``, ``gripper.open()/close()``.
-``bot.world`` (px100_control extension, :mod:`px100_control.client.world`) lists the simulated
-scene's objects, reads their poses and resets them.
+``use_gripper`` / ``joint_state_topic`` (also positionally in the noetic order: a bool 7th
+argument is ``use_gripper`` and shifts the rest), and use ``bot.dxl``,
+``gripper.open()/close()``. ``recorder=`` (px100_control) waits for a recorder first (see
+:class:`~px100_control.client.core.InterbotixRobotXSCore`). ``bot.world`` (px100_control
+extension, :mod:`px100_control.client.world`) lists the simulated scene's objects, reads their
+poses and resets them.
 """
 from typing import Optional
 
@@ -75,7 +78,15 @@ class InterbotixManipulatorXS:
                  bringup=None, real_time_factor: Optional[float] = None,
                  connect_timeout: Optional[float] = None, node_kwargs: Optional[dict] = None,
                  use_gripper: bool = True, init_node: bool = True,
-                 joint_state_topic: Optional[str] = None) -> None:
+                 joint_state_topic: Optional[str] = None, recorder=None) -> None:
+        if isinstance(gripper_pressure, bool):
+            # ROS 1 (noetic) positional layout: (..., accel_time, use_gripper, gripper_pressure,
+            # lower, upper, init_node): the values sit one slot later than in ROS 2
+            (use_gripper, gripper_pressure, gripper_pressure_lower_limit,
+             gripper_pressure_upper_limit, topic_joint_states, logging_level, init_node) = \
+                _ros1_layout(gripper_pressure, gripper_pressure_lower_limit,
+                             gripper_pressure_upper_limit, topic_joint_states, logging_level,
+                             init_node)
         if not use_gripper:
             gripper_name = None
         if joint_state_topic is not None:
@@ -86,7 +97,7 @@ class InterbotixManipulatorXS:
             topic_joint_states=topic_joint_states, logging_level=logging_level,
             node_name=node_name, node=node, args=args, bringup=bringup,
             real_time_factor=real_time_factor, connect_timeout=connect_timeout,
-            node_kwargs=node_kwargs)
+            node_kwargs=node_kwargs, recorder=recorder)
         self.arm = InterbotixArmXSInterface(
             core=self.core, robot_model=robot_model, group_name=group_name,
             moving_time=moving_time, accel_time=accel_time,
@@ -111,3 +122,21 @@ class InterbotixManipulatorXS:
     def shutdown(self) -> None:
         """Shut the API down (the galactic-era method; calls robot_shutdown)."""
         robot_shutdown()
+
+
+def _ros1_layout(use_gripper, slot8, slot9, slot10, slot11, init_node):
+    """
+    Map ROS 1 positional arguments 7..11 found in the ROS 2 slots to their meaning.
+
+    ROS 1: use_gripper, gripper_pressure, lower, upper, init_node; ROS 2 has gripper_pressure,
+    lower, upper, topic_joint_states, logging_level there. A slot still holding its ROS 2
+    default was not given, so the ROS 1 default applies.
+    :return: (use_gripper, pressure, lower, upper, topic_joint_states, logging_level, init_node)
+    """
+    pressure = float(slot8) if slot8 != 150 else 0.5
+    lower = slot9 if slot9 != 350 else 150
+    upper = slot10 if isinstance(slot10, (int, float)) else 350
+    if isinstance(slot11, bool):
+        init_node = slot11
+    return (bool(use_gripper), pressure, lower, upper, 'joint_states', LoggingSeverity.INFO,
+            init_node)

@@ -16,10 +16,19 @@ Differences from Interbotix (documented, on purpose):
   (``bringup=True`` / ``PX100_BRINGUP=1``), is safe to call twice, and resets the module so a new
   robot can be constructed afterwards in the same process. It also runs at interpreter exit for
   scripts that never call it.
+- Ctrl-C (SIGINT) in a script: rclpy is initialised without its signal handlers (they would
+  invalidate the context under the running script), and the client's handler cancels the goals
+  of every robot of this process (trajectory_server decelerates them to rest where they are),
+  stops driven grippers, prints one line saying so and where the bag is, and exits with status
+  130 (SystemExit: ``with`` blocks and atexit still close bags and stop nodes) without a
+  traceback. A second Ctrl-C during that exits at once.
 """
 import atexit
+import os
+import signal
+import sys
 import threading
-from typing import Optional
+from typing import Dict, Optional
 
 from px100_control.ros.common import make_executor
 import rclpy
@@ -102,8 +111,11 @@ class _Runtime:
         self.thread = None  # SpinThread
         self.spun_nodes = []
         self.startup_requested = False
-        self.bringup = None  # px100_control.client.inprocess.InProcessBringup
+        #: in-process bringups by robot_name (px100_control.client.inprocess)
+        self.bringups: Dict[str, object] = {}
         self.robots = []
+        self.interrupted = False
+        self.handler_installed = False
 
 
 _RT = _Runtime()
@@ -122,7 +134,10 @@ def create_interbotix_global_node(node_name: str = 'interbotix_robot_manipulatio
             raise InterbotixException(
                 'Tried to create an Interbotix global node but one already exists.')
         if not rclpy.ok():
-            rclpy.init(*args)
+            from rclpy.signals import SignalHandlerOptions
+            # no rclpy signal handlers: SIGINT would shut the context down under the script
+            rclpy.init(args=args[0] if args else None,
+                       signal_handler_options=SignalHandlerOptions.NO)
             _RT.owns_context = True
         _RT.node = InterbotixRobotNode(node_name=node_name, namespace=namespace, **kwargs)
         return _RT.node
@@ -225,20 +240,61 @@ def robot_startup(node: Optional[Node] = None,
 
 
 def register_robot(robot) -> None:
-    """Remember a constructed core so robot_shutdown() can stop its timers first."""
+    """Remember a constructed core (robot_shutdown() stops it, Ctrl-C cancels its goals)."""
     with _RT.lock:
         _RT.robots.append(robot)
+    install_interrupt_handler()
 
 
-def set_bringup(bringup) -> None:
-    """Attach the in-process bringup that robot_shutdown() must stop."""
+def set_bringup(bringup, robot_name: Optional[str] = None) -> None:
+    """Attach an in-process bringup (of robot ``robot_name``) that robot_shutdown() stops."""
     with _RT.lock:
-        _RT.bringup = bringup
+        _RT.bringups[getattr(bringup, 'robot_name', '') if robot_name is None
+                     else robot_name] = bringup
 
 
-def get_bringup():
-    """Return the running in-process bringup (or None)."""
-    return _RT.bringup
+def get_bringup(robot_name: Optional[str] = None):
+    """Return the in-process bringup of ``robot_name`` (None: the first one), or None."""
+    if robot_name is None:
+        return next(iter(_RT.bringups.values()), None)
+    return _RT.bringups.get(robot_name)
+
+
+def install_interrupt_handler() -> None:
+    """
+    Make Ctrl-C stop the robots safely (see the module docstring).
+
+    Installed from the main thread only, and only over Python's default SIGINT handler (a
+    handler the script installed itself is left alone).
+    """
+    with _RT.lock:
+        if _RT.handler_installed or threading.current_thread() is not threading.main_thread():
+            return
+        if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+            return
+        signal.signal(signal.SIGINT, _on_sigint)
+        _RT.handler_installed = True
+
+
+def interrupt_robots() -> str:
+    """Cancel every robot's goals and hold it; return the one-line report."""
+    parts = []
+    for robot in list(_RT.robots):
+        try:
+            parts.append(robot.interrupt())
+        except Exception as exc:  # noqa: B902 - report and go on with the other robots
+            parts.append(f'{getattr(robot, "robot_name", "?")}: could not stop ({exc})')
+    return '; '.join(p for p in parts if p)
+
+
+def _on_sigint(signum, frame) -> None:
+    """SIGINT: stop the robots, print one line, exit 130 (a second Ctrl-C: at once)."""
+    if _RT.interrupted:
+        os._exit(130)
+    _RT.interrupted = True
+    report = interrupt_robots() or 'no robot was running'
+    print(f'Interrupted (Ctrl-C): {report}', file=sys.stderr, flush=True)
+    raise SystemExit(130)
 
 
 def robot_shutdown(node: Optional[Node] = None) -> None:
@@ -267,8 +323,8 @@ def robot_shutdown(node: Optional[Node] = None) -> None:
                 n.destroy_node()
             except Exception:  # noqa: B902 - already destroyed
                 pass
-        if _RT.bringup is not None:
-            _RT.bringup.stop()
+        for bringup in list(_RT.bringups.values()):
+            bringup.stop()
         if _RT.owns_context:
             rclpy.try_shutdown()
         _RT.node = None
@@ -277,12 +333,17 @@ def robot_shutdown(node: Optional[Node] = None) -> None:
         _RT.thread = None
         _RT.spun_nodes = []
         _RT.startup_requested = False
-        _RT.bringup = None
+        _RT.bringups = {}
+        _RT.interrupted = False
+        if _RT.handler_installed and threading.current_thread() is threading.main_thread():
+            if signal.getsignal(signal.SIGINT) is _on_sigint:
+                signal.signal(signal.SIGINT, signal.default_int_handler)
+            _RT.handler_installed = False
 
 
 def _at_exit() -> None:
     """Shut down cleanly at interpreter exit when a script never called robot_shutdown()."""
-    if _RT.node is not None or _RT.bringup is not None or _RT.thread is not None:
+    if _RT.node is not None or _RT.bringups or _RT.thread is not None:
         try:
             robot_shutdown()
         except Exception:  # noqa: B902 - interpreter is exiting

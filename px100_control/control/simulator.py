@@ -444,6 +444,9 @@ class ArmSimulator:
         self._object_half = None
         self.time = 0.0
         self.torque_enabled = True
+        #: torque per arm joint (False: that servo coasts) and of the gripper
+        self.joint_torque = [True] * self.n
+        self.gripper_torque = True
         self.set_object_width(config.object_width)
         self.reset()
 
@@ -513,9 +516,9 @@ class ArmSimulator:
         self.mj_model.dof_frictionloss[self._arm_dof] = self._friction
 
     def _update_damping(self) -> None:
-        on = self.torque_enabled
-        self._back_emf = [s.back_emf_damping if on and self.modes.get(nm) != 'torque' else 0.0
-                          for nm, s in zip(self.names, self.servos)]
+        on = getattr(self, 'joint_torque', None) or [self.torque_enabled] * self.n
+        self._back_emf = [s.back_emf_damping if t and self.modes.get(nm) != 'torque' else 0.0
+                          for nm, s, t in zip(self.names, self.servos, on)]
         self.mj_model.dof_damping[self._arm_dof] = [d + b for d, b in
                                                     zip(self._damping, self._back_emf)]
 
@@ -580,6 +583,8 @@ class ArmSimulator:
         """
         mujoco.mj_resetData(self.mj_model, self.mj_data)
         self.torque_enabled = True
+        self.joint_torque = [True] * self.n
+        self.gripper_torque = True
         if self.gripper_name:
             d0 = self.linkage.finger_position(0.0)
             self._qpos[self._fq[0]], self._qpos[self._fq[1]] = d0, -d0
@@ -632,24 +637,44 @@ class ArmSimulator:
         self.effort = [float(g) if pid.gains.i > 0 else 0.0
                        for pid, g in zip(self.pids, gravity)]
 
-    def set_torque_enabled(self, enabled: bool) -> None:
+    def set_torque_enabled(self, enabled: bool, joints: Optional[Sequence[str]] = None) -> None:
         """
-        Switch all servos' torque on or off.
+        Switch servos' torque on or off: all of them, or only ``joints`` (arm joints, gripper).
 
-        Torque on (as the DYNAMIXEL does) makes each joint hold where it is now: setpoints =
-        present positions, integrators cleared; the gripper effort is zeroed.
+        Torque on (as the DYNAMIXEL does) makes a joint hold where it is now: setpoint =
+        present position, integrators cleared; the gripper effort is zeroed.
+        :raises UnknownJointError: a name that is not an arm joint or the gripper
         """
         enabled = bool(enabled)
-        if enabled and not self.torque_enabled:
-            self.q_ref = self.q
-            self.qd_ref = [0.0] * self.n
-            for pid in self.pids + self.velocity_pids:
-                pid.reset()
-            if self.gripper_name:
-                self.g_ref, self.g_ref_vel, self.g_command = self.g_theta, 0.0, 0.0
-                self.gripper_pid.reset()
-        self.torque_enabled = enabled
+        names = list(self.command_joints) if joints is None else [str(j) for j in joints]
+        for name in names:
+            if name not in self.command_joints:
+                raise UnknownJointError(name, self.command_joints)
+        q = self.q
+        for name in names:
+            if name == self.gripper_name:
+                if enabled and not self.gripper_torque:
+                    self.g_ref, self.g_ref_vel, self.g_command = self.g_theta, 0.0, 0.0
+                    self.gripper_pid.reset()
+                self.gripper_torque = enabled
+                continue
+            i = self.names.index(name)
+            if enabled and not self.joint_torque[i]:
+                self.q_ref[i] = q[i]
+                self.qd_ref[i] = 0.0
+                self.pids[i].reset()
+                self.velocity_pids[i].reset()
+            self.joint_torque[i] = enabled
+        self.torque_enabled = all(self.joint_torque) and (
+            self.gripper_torque or not self.gripper_name)
         self._update_damping()
+
+    def torque_states(self) -> Dict[str, bool]:
+        """Return {joint: torque on} for the arm joints and the gripper."""
+        out = dict(zip(self.names, self.joint_torque))
+        if self.gripper_name:
+            out[self.gripper_name] = self.gripper_torque
+        return out
 
     def set_gains(self, joint: str, gains: PidGains) -> None:
         """Use new PID gains on one joint (arm joint or gripper)."""
@@ -772,13 +797,16 @@ class ArmSimulator:
         m, d = self.mj_model, self.mj_data
         dt = m.opt.timestep
         n = self.n
-        on = self.torque_enabled
+        torque = self.joint_torque
+        on = any(torque)
         q, qd = self.q, self.qd
         t = self.time
         drive = [0.0] * n
         if on:
             pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
             for i, mode in enumerate(self._mode_list):
+                if not torque[i]:
+                    continue  # this servo coasts
                 stall, lim, back, top = self._servo_consts[i]
                 if mode == 'position':
                     v_ref = qd_ref[i] if t < ff_until[i] else 0.0
@@ -801,10 +829,14 @@ class ArmSimulator:
         else:
             self._qfrc[self._arm_dof] = drive
         if self.gripper_name:
-            self._gripper_force(dt, on)
+            self._gripper_force(dt, self.gripper_torque)
         mujoco.mj_step(m, d)
         v = self._qvel[:n] if self._contiguous else None
-        if on:
+        if on and not all(torque):
+            for i, dof in enumerate(self._arm_dof):
+                if torque[i]:
+                    self._qvel[dof] = min(max(self._qvel[dof], -self._vlim[i]), self._vlim[i])
+        elif on:
             if v is not None:
                 np.clip(v, -self._vlim, self._vlim, out=v)
             else:
@@ -812,11 +844,12 @@ class ArmSimulator:
                                                     self._vlim)
         if on:
             vel = self._qvel[:n].tolist() if self._contiguous else self.qd
-            self.effort = [x - b * v for x, b, v in zip(drive, self._back_emf, vel)]
+            self.effort = [x - b * v if tq else 0.0
+                           for x, b, v, tq in zip(drive, self._back_emf, vel, torque)]
         else:
             self.effort = [0.0] * n
         if self.gripper_name:
-            self._after_gripper_step(on)
+            self._after_gripper_step(self.gripper_torque)
         self.time = t + dt
 
     def _gripper_force(self, dt: float, on: bool) -> None:

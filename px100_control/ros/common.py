@@ -15,6 +15,7 @@ import math
 import signal
 from typing import List, Optional, Sequence
 
+from px100_control.errors import InvalidInputError
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
 from px100_control.ros.parameter_schema import COMMON, NodeSchema, ParamSpec
@@ -104,7 +105,6 @@ def declare_schema(node: Node, schema: NodeSchema, defaults: Optional[dict] = No
     :raises Px100Error: a value from the command line or a params file is not valid (the
         message names the parameter and the allowed values)
     """
-    from px100_control.errors import InvalidInputError
     from rcl_interfaces.msg import SetParametersResult
     defaults = defaults or {}
     names = []

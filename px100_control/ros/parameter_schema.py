@@ -194,9 +194,10 @@ SIM_DRIVER = NodeSchema('sim_driver', COMMON + (
     ParamSpec('object_width', 'double', 0.0, 'width of an object between the fingers [m], '
               '0 = none', low=0.0, high=10.0),
     ParamSpec('world_rate', 'double', 30.0, 'world/markers rate [Hz]', low=0.1, high=1000.0),
-    ParamSpec('scene', 'string', 'pick_place', 'scene of objects: a name in config/scenes, a '
-              "path to a .yaml, '' = no objects (a bad one is refused with the loader's "
-              'reason)'),
+    ParamSpec('scene', 'string', 'auto', 'scene of objects: a name in config/scenes, a '
+              "path to a .yaml, '' = no objects, 'auto' = the robot file's scene (px100: "
+              "pick_place; none for robots without one). A bad one is refused with the loader's "
+              'reason'),
     ParamSpec('gains_units', 'string', 'si', "units of gains.*: 'si' or 'dynamixel' (p/i/d as "
               'the XL430 Position P/I/D Gain registers)', choices=('si', 'dynamixel'),
               read_only=True),

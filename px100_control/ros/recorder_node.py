@@ -25,6 +25,15 @@ objects' frames to ``/tf``: ``<robot_name>/objects/<name>``, children of the mar
 file is readable up to its last chunk (at most ``--flush-period`` s are lost) and
 ``bag_reindex`` rebuilds it.
 
+Nothing lost at the start: the recorder subscribes at once to the contract's topics
+(docs/ros_interfaces.md: it knows their names, types and QoS), before any publisher exists, and
+to other topics as they appear. It is *ready* once every selected topic that has a publisher is
+subscribed and matched with all its publishers (or after ``ready_timeout``, with a warning
+naming the unmatched ones); it then publishes the bag directory on ``recorder/ready``
+(std_msgs/String, transient local, under ``/<robot_name>/``), where the client waits for it
+(``InterbotixManipulatorXS(..., recorder=True)`` or a Recorder instance), and logs ``ready``.
+``with Recorder(dir):`` enters only when its recorder is ready.
+
 Python API (the client and the demos record their runs with it)::
 
     from px100_control.ros.recorder_node import Recorder
@@ -46,6 +55,7 @@ import os
 import threading
 import time
 from typing import Dict, List, Optional, Sequence
+import weakref
 
 from px100_control.bag import metadata as md
 from px100_control.bag.replay import resolve_topic
@@ -77,6 +87,34 @@ SUBSCRIPTION_DEPTH = 1000
 DRAIN_LIMIT = 200
 #: joint states kept for /tf while the URDF is being parsed at start-up
 TF_BACKLOG = 20000
+#: the contract's topics (docs/ros_interfaces.md), subscribed before any publisher appears:
+#: name (relative to /<robot_name>/ unless absolute) -> (type, latched)
+CONTRACT_TOPICS = {
+    'joint_states': ('sensor_msgs/msg/JointState', False),
+    'ee_pose': ('geometry_msgs/msg/PoseStamped', False),
+    'robot_description': ('std_msgs/msg/String', True),
+    'commands/joint_setpoints': ('sensor_msgs/msg/JointState', False),
+    'ik/request': ('geometry_msgs/msg/PoseStamped', False),
+    'ik/solution': ('sensor_msgs/msg/JointState', False),
+    'ik/status': ('diagnostic_msgs/msg/DiagnosticStatus', False),
+    'ik/path_request': ('geometry_msgs/msg/PoseArray', False),
+    'ik/path_solution': ('trajectory_msgs/msg/JointTrajectory', False),
+    'trajectory/goal': ('trajectory_msgs/msg/JointTrajectory', False),
+    'trajectory/status': ('action_msgs/msg/GoalStatusArray', True),
+    'trajectory/feedback': ('sensor_msgs/msg/JointState', False),
+    'world/markers': ('visualization_msgs/msg/MarkerArray', True),
+    'world/held_object': ('std_msgs/msg/String', True),
+    '/diagnostics': ('diagnostic_msgs/msg/DiagnosticArray', False),
+}
+#: where a recorder announces that it is ready (relative to /<robot_name>/): the bag directory
+READY_TOPIC = 'recorder/ready'
+#: the recorders of this process that are recording (for the client's Ctrl-C report)
+_ACTIVE = weakref.WeakSet()
+
+
+def active_bag_dirs() -> List[str]:
+    """Return the bag directories of the RecorderNodes of this process still recording."""
+    return sorted(n.output for n in list(_ACTIVE) if not n.closed.is_set())
 
 
 def default_output_dir() -> str:
@@ -154,6 +192,7 @@ class RecorderNode(Node):
     :param compression: chunk compression 'zstd', 'lz4' or 'none'
     :param flush_period: longest time [s] a message stays in memory (SIGKILL loses at most that)
     :param rescan_period: graph scan period [s] for new topics
+    :param ready_timeout: [s] report ready after this long even if a publisher is not matched
     :raises BagError: the output directory is not usable
     """
 
@@ -163,7 +202,7 @@ class RecorderNode(Node):
                  max_messages: Optional[int] = None, idle_timeout: Optional[float] = None,
                  write_tf: bool = True, tf_rate: float = 50.0, write_description: bool = True,
                  compression: str = 'zstd', flush_period: float = 1.0,
-                 rescan_period: float = 0.5, **node_kwargs):
+                 rescan_period: float = 0.5, ready_timeout: float = 5.0, **node_kwargs):
         super().__init__('recorder', **robot_node_kwargs('recorder', node_kwargs))
         # the robot_model/robot_name parameters of declare_robot_parameters(), but the model
         # (URDF parsing, slow to import) is loaded in the background: recording starts at once
@@ -199,6 +238,16 @@ class RecorderNode(Node):
         self._last_object_tf_ns = 0
         self.description_topic = ns + 'robot_description'
         self._subs: Dict[str, object] = {}
+        #: contract topics subscribed ahead of their publishers: topic -> (type, latched)
+        self._ahead: Dict[str, tuple] = {}
+        #: subscribed-ahead topics already matched with a publisher (and logged as recorded)
+        self._matched: set = set()
+        #: the QoS of each subscribed-ahead topic's subscription
+        self._ahead_qos: Dict[str, QoSProfile] = {}
+        self.ready = threading.Event()
+        self.ready_timeout = float(ready_timeout)
+        self.ready_topic = ns + READY_TOPIC
+        self._pub_ready = None
         self._skipped: Dict[str, str] = {}
         self._lock = threading.Lock()
         self._closing = False
@@ -222,6 +271,8 @@ class RecorderNode(Node):
                                           'robot_model': model_name})
         try:
             self.started_at = time.monotonic()
+            _ACTIVE.add(self)
+            self._subscribe_contract(ns)
             threading.Thread(target=self._load_model, name='px100_recorder_model',
                              daemon=True).start()
             self._scan_timer = self.create_timer(rescan_period, self.scan_graph)
@@ -233,6 +284,7 @@ class RecorderNode(Node):
                     else 'all topics') if self.all_topics else ', '.join(sorted(self.wanted)))
                 + (f' (for {duration:g} s)' if duration else ''))
             self.scan_graph()
+            self._check_ready()
         except BaseException:
             self.finish()  # e.g. SIGINT during start-up: still leave a closed, valid bag
             raise
@@ -253,7 +305,120 @@ class RecorderNode(Node):
             self._model_ready.set()
 
     # -- graph ------------------------------------------------------------------------------
+    def _subscribe_contract(self, ns: str) -> None:
+        """Subscribe to the selected contract topics now, before their publishers exist."""
+        for name, (type_name, latched) in CONTRACT_TOPICS.items():
+            topic = name if name.startswith('/') else ns + name
+            if not self._selected(topic) or (self.write_tf and topic == TF_TOPIC):
+                continue
+            cls = message_class(type_name)
+            if cls is None:
+                continue  # e.g. visualization_msgs not installed: the scan decides later
+            qos = QoSProfile(
+                history=HistoryPolicy.KEEP_LAST, depth=SUBSCRIPTION_DEPTH,
+                reliability=ReliabilityPolicy.RELIABLE,
+                durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
+                            else DurabilityPolicy.VOLATILE))
+            try:
+                sub = self.create_subscription(cls, topic, self._make_callback(topic), qos,
+                                               raw=True)
+            except Exception as exc:  # e.g. this participant has the topic with another type
+                self.get_logger().debug(f'{topic}: not subscribed ahead ({exc})')
+                continue
+            self._ahead[topic] = (type_name, latched)
+            self._ahead_qos[topic] = qos
+            self._subs[topic] = sub
+            self.get_logger().debug(f'{topic} [{type_name}]: subscribed ahead')
+
+    def _add_channel(self, topic: str) -> None:
+        """Add a subscribed-ahead topic to the bag (at its first message: publishers' QoS)."""
+        type_name, latched = self._ahead[topic]
+        pubs = list(self.get_publishers_info_by_topic(topic))
+        offered = [qos_to_dict(p.qos_profile) for p in pubs] or [qos_to_dict(QoSProfile(
+            depth=1 if latched else 10, reliability=ReliabilityPolicy.RELIABLE,
+            durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
+                        else DurabilityPolicy.VOLATILE)))]
+        type_hash = getattr(pubs[0], 'topic_type_hash', '') if pubs else ''
+        self.bag.add_topic(topic, type_name, offered,
+                           type_description_hash=str(type_hash) if type_hash else None)
+
+    def _revise_ahead(self, topic: str, type_name: str, pubs) -> None:
+        """Re-subscribe a subscribed-ahead topic whose publishers its QoS or type cannot match."""
+        ahead_type, latched = self._ahead[topic]
+        type_name = getattr(pubs[0], 'topic_type', '') or type_name
+        mine = self._ahead_qos[topic]
+        reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in pubs)
+        durable = all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                      for p in pubs)
+        fits = (reliable or mine.reliability == ReliabilityPolicy.BEST_EFFORT) and \
+            (durable or mine.durability == DurabilityPolicy.VOLATILE)
+        if type_name == ahead_type and fits:
+            return
+        if topic in self.bag.topics and type_name != ahead_type:
+            self._skip(topic, f"published as '{type_name}', already recorded as '{ahead_type}'")
+            return
+        cls = message_class(type_name)
+        if cls is None:
+            return
+        self.destroy_subscription(self._subs.pop(topic))
+        self._ahead[topic] = (type_name, latched and durable)
+        qos = subscription_qos([p.qos_profile for p in pubs])
+        self._ahead_qos[topic] = qos
+        self._subs[topic] = self.create_subscription(
+            cls, topic, self._make_callback(topic), qos, raw=True)
+        self.get_logger().info(f'{topic}: re-subscribed to match its publishers '
+                               f'[{type_name}, {qos.reliability.name.lower()}, '
+                               f'{qos.durability.name.lower()}]')
+
+    def _note_matches(self) -> None:
+        """Log 'recording <topic>' once a subscribed-ahead topic is matched with a publisher."""
+        for topic, (type_name, latched) in list(self._ahead.items()):
+            sub = self._subs.get(topic)
+            if topic in self._matched or sub is None or sub.get_publisher_count() == 0:
+                continue
+            self._matched.add(topic)
+            qos = self._ahead_qos[topic]
+            self.get_logger().info(f'recording {topic} [{type_name}] '
+                                   f'({qos.reliability.name.lower()}, '
+                                   f'{qos.durability.name.lower()})')
+
+    def _unmatched(self) -> List[str]:
+        """Return the selected topics whose publishers are not all matched yet."""
+        out = []
+        for topic, _ in self.get_topic_names_and_types():
+            if topic in self._skipped or not self._selected(topic) or topic == TF_TOPIC:
+                continue
+            n = self.count_publishers(topic)
+            if n == 0:
+                continue
+            sub = self._subs.get(topic)
+            if sub is None or sub.get_publisher_count() < n:
+                out.append(topic)
+        return out
+
+    def _check_ready(self) -> None:
+        """Announce readiness once subscribed and matched (see the module docstring)."""
+        if self.ready.is_set() or self._closing:
+            return
+        unmatched = self._unmatched()
+        late = time.monotonic() - self.started_at > self.ready_timeout
+        if unmatched and not late:
+            return
+        if unmatched:
+            self.get_logger().warning(
+                f'ready after {self.ready_timeout:g} s, but not matched with every publisher '
+                f"of: {', '.join(unmatched)}")
+        from std_msgs.msg import String
+        self._pub_ready = self.create_publisher(String, self.ready_topic, QoSProfile(
+            depth=1, reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self._pub_ready.publish(String(data=self.output))
+        self.ready.set()
+        self.get_logger().info(f'ready: recording {len(self._subs)} topics to {self.output}')
+
     def _selected(self, topic: str) -> bool:
+        if topic == getattr(self, 'ready_topic', None):
+            return False
         if topic in self.wanted:
             return True
         if not self.all_topics:
@@ -270,6 +435,11 @@ class RecorderNode(Node):
         if self._closing:
             return
         for topic, types in self.get_topic_names_and_types():
+            if topic in self._ahead and topic not in self._skipped:
+                pubs = self.get_publishers_info_by_topic(topic)
+                if pubs:
+                    self._revise_ahead(topic, types[0], pubs)
+                continue
             if topic in self._subs or topic in self._skipped or not self._selected(topic):
                 continue
             if self.write_tf and topic == TF_TOPIC:
@@ -313,6 +483,8 @@ class RecorderNode(Node):
         def handle(data: bytes, info: dict) -> bool:
             t = info.get('received_timestamp') or time.time_ns()
             try:
+                if topic not in self.bag.topics:
+                    self._add_channel(topic)
                 write(topic, data, t, info.get('source_timestamp') or t)
             except BagError:
                 self._dropped_writes += 1  # closed under our feet (stop in progress)
@@ -477,6 +649,8 @@ class RecorderNode(Node):
         if self._closing:
             return
         self.bag.flush_if_due()
+        self._note_matches()
+        self._check_ready()
         now = time.monotonic()
         if (self.write_description and not self._description_seen
                 and self._first_js_at is not None and now - self._first_js_at > 1.5
@@ -534,6 +708,8 @@ class RecorderNode(Node):
                 data, info = taken
                 t = info.get('received_timestamp') or time.time_ns()
                 try:
+                    if topic not in self.bag.topics:
+                        self._add_channel(topic)
                     self.bag.write(topic, data, t, info.get('source_timestamp') or t)
                 except BagError:
                     break
@@ -544,8 +720,8 @@ class RecorderNode(Node):
 
     @property
     def topics_recorded(self) -> List[str]:
-        """Return the topics that have a channel in the bag."""
-        return sorted(self.bag.topics)
+        """Return the topics in the bag or subscribed and matched with a publisher."""
+        return sorted(set(self.bag.topics) | self._matched)
 
     def destroy_node(self):
         """Close the bag, then destroy the node."""
@@ -585,13 +761,21 @@ class Recorder:
         self._thread: Optional[threading.Thread] = None
         self.metadata_path = ''
 
-    def start(self) -> 'Recorder':
-        """Create the node and start recording; return self."""
+    def start(self, wait: bool = True) -> 'Recorder':
+        """
+        Create the node and start recording; return self.
+
+        :param wait: return only once the recorder is ready (subscribed and matched, see the
+            module docstring; at most ready_timeout + 5 s), else at once (see wait_ready)
+        """
         if self.node is not None:
             return self
         if self._given_context is None:
+            from rclpy.signals import SignalHandlerOptions
             self.context = rclpy.Context()
-            rclpy.init(context=self.context)
+            # no rclpy signal handlers: Ctrl-C reaches the script (KeyboardInterrupt, or the
+            # client's handler), and the with-block closes the bag on this context
+            rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         else:
             self.context = self._given_context
         try:
@@ -605,6 +789,8 @@ class Recorder:
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='px100_recorder', daemon=True)
         self._thread.start()
+        if wait:
+            self.wait_ready(self.node.ready_timeout + 5.0)
         return self
 
     def _spin(self) -> None:
@@ -616,6 +802,10 @@ class Recorder:
             pass
         except Exception as exc:  # keep the bag: it is closed in stop()
             self.node.get_logger().error(f'recorder executor stopped: {exc}')
+
+    def wait_ready(self, timeout: Optional[float] = None) -> bool:
+        """Wait until the recorder is subscribed and matched (module docstring); True if so."""
+        return self.node is not None and self.node.ready.wait(timeout)
 
     @property
     def finished(self) -> bool:
@@ -644,8 +834,8 @@ class Recorder:
     __call__ = stop
 
     def __enter__(self):
-        """Start recording."""
-        return self.start()
+        """Start recording; return once the recorder is ready (at most ready_timeout + 5 s)."""
+        return self.start(wait=True)
 
     def __exit__(self, *exc):
         """Stop recording and close the bag."""

@@ -14,6 +14,12 @@ installed here (e.g. ``/tf``'s tf2_msgs) are skipped with a warning unless asked
 ``--topics`` (then it is an error). A missing, empty, truncated or corrupt bag, an unknown
 topic or type: one clear error line, exit status 1.
 
+Safety: when a live driver or trajectory_server runs in a namespace the bag replays into (see
+:mod:`px100_control.ros.peers`), the replayer warns, naming them, and by default does not
+re-send the bag's goals (``trajectory/goal``) and setpoints (``commands/joint_setpoints``):
+they would move the live arm again. ``--send-commands`` (``send_commands=True``) sends them
+anyway. Replayed ``joint_states`` beside a live driver are sent, with a warning.
+
 Python: ``ReplayerNode(bag, rate=..., topics=..., remap=...)``, then ``start()``; ``done`` is
 set when the replay ended.
 """
@@ -31,12 +37,17 @@ from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
                                       parameter_descriptor, parse_cli, robot_node_kwargs,
                                       shutdown_executor, shutting_down)
 from px100_control.ros.parameter_schema import COMMON, REPLAYER
+from px100_control.ros.peers import has_unknown, live_peers
 from px100_control.ros.recorder_node import message_class
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 PROGRESS_PERIOD_S = 0.25
+#: topics (relative to a robot namespace) that move a live arm when replayed
+COMMAND_TOPICS = ('trajectory/goal', 'commands/joint_setpoints')
+#: how long [s] the graph is watched for live nodes before commands are replayed
+LIVE_CHECK_S = 1.0
 
 
 def publisher_qos(profiles: Sequence[dict]) -> QoSProfile:
@@ -67,6 +78,8 @@ class ReplayerNode(Node):
     :param wait_for_subscribers: wait up to this long [s] for every topic to have
         min_subscribers subscribers
     :param progress: write a progress line to stderr
+    :param send_commands: replay goals and setpoints also into a namespace with a live driver
+        or trajectory_server (default: skip them there, with a warning)
     :raises BagError: bad bag, unknown topic or type, bad option value
     """
 
@@ -74,7 +87,7 @@ class ReplayerNode(Node):
                  topics: Optional[Sequence[str]] = None, remap: Optional[Sequence[str]] = None,
                  start_offset: float = 0.0, delay: float = 0.0,
                  wait_for_subscribers: float = 0.0, min_subscribers: int = 1,
-                 progress: bool = True, **node_kwargs):
+                 progress: bool = True, send_commands: bool = False, **node_kwargs):
         super().__init__('replayer', **robot_node_kwargs('replayer', node_kwargs))
         # the robot_model/robot_name parameters of every node (the model itself is not needed)
         read_robot_file(str(self.declare_parameter(
@@ -97,6 +110,9 @@ class ReplayerNode(Node):
         self.wait_for_subscribers = float(wait_for_subscribers)
         self.min_subscribers = max(1, int(min_subscribers))
         self.progress = bool(progress)
+        self.send_commands = bool(send_commands)
+        #: bag topics left out because a live node would act on them
+        self.withheld: List[str] = []
         self.published = 0
         self.passes = 0
         self.done = threading.Event()
@@ -193,6 +209,10 @@ class ReplayerNode(Node):
                 return
             if self.wait_for_subscribers > 0:
                 self._wait_for_subscribers()
+            self._check_live_graph()
+            if not self.topics:
+                self.get_logger().warning('nothing left to replay')
+                return
             self._play()
         except BagError as exc:
             self.error = str(exc)
@@ -206,6 +226,46 @@ class ReplayerNode(Node):
             if self.progress:
                 self._show_progress(final=True)
             self.done.set()
+
+    def _command_topics(self) -> Dict[str, str]:
+        """Return {bag topic: namespace} of the goal / setpoint topics being replayed."""
+        out = {}
+        for topic in self.topics:
+            published_as = self.remaps.get(topic, topic)
+            for suffix in COMMAND_TOPICS:
+                if published_as.endswith('/' + suffix) or published_as == suffix:
+                    out[topic] = published_as[:-len(suffix)].rstrip('/') or '/'
+        return out
+
+    def _check_live_graph(self) -> None:
+        """Warn about live drivers / trajectory servers; withhold commands from them."""
+        commands = self._command_topics()
+        if not commands or self.send_commands:
+            return
+        namespaces = sorted(set(commands.values()))
+        deadline = time.monotonic() + LIVE_CHECK_S
+        live, unknown = {}, False
+        while (not live or unknown) and time.monotonic() < deadline and \
+                not self._stop.is_set():
+            live, unknown = {}, False
+            for ns in namespaces:
+                peers = live_peers(self, ns)
+                names = peers['drivers'] + peers['trajectory_servers']
+                unknown = unknown or has_unknown(peers)
+                if names:
+                    live[ns] = sorted(set(names))
+            if not live or unknown:
+                time.sleep(0.05)
+        for topic, ns in commands.items():
+            if ns in live:
+                self.withheld.append(topic)
+        if not self.withheld:
+            return
+        self.topics = [t for t in self.topics if t not in self.withheld]
+        self.get_logger().warning(
+            'live nodes would act on the replayed commands ('
+            + '; '.join(f"{ns}: {', '.join(n)}" for ns, n in live.items())
+            + f"): not replaying {', '.join(self.withheld)} (--send-commands replays them)")
 
     def _wait_for_acks(self, timeout_s: float = 2.0) -> None:
         """Give reliable subscribers the time to acknowledge the last messages before exit."""
@@ -282,6 +342,9 @@ def _add_arguments(parser) -> None:
                         help='with --wait-for-subscribers: wait for N subscribers per topic')
     parser.add_argument('--no-progress', action='store_true',
                         help='no progress line on stderr')
+    parser.add_argument('--send-commands', action='store_true',
+                        help='also replay goals and setpoints into a namespace where a live '
+                             'driver or trajectory_server runs (default: skip them there)')
 
 
 def extract_remaps(argv: Sequence[str]):
@@ -332,7 +395,8 @@ def main(args=None) -> int:
                             start_offset=options.start_offset, delay=options.delay,
                             wait_for_subscribers=options.wait_for_subscribers,
                             min_subscribers=options.min_subscribers,
-                            progress=not options.no_progress)
+                            progress=not options.no_progress,
+                            send_commands=options.send_commands)
         node.start()
         executor.add_node(node)
         while keep_spinning() and not node.done.is_set():

@@ -11,13 +11,25 @@ A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
 - sub ``commands/joint_setpoints`` (sensor_msgs/JointState): position (+ optional velocity
   feed-forward) for any subset of joints, or effort [N*m] for the gripper alone; a refused
   message is logged and published on ``/diagnostics`` and nothing of it is applied;
-- services ``torque_enable`` (std_srvs/SetBool), ``reset`` (std_srvs/Trigger: the arm to its
-  sleep pose and the scene's objects to their initial poses);
+- services ``torque_enable`` (std_srvs/SetBool: every joint), ``reset`` (std_srvs/Trigger: the
+  arm to its sleep pose and the scene's objects to their initial poses);
 - the world of the ``scene`` parameter: pub ``world/markers`` (visualization_msgs/MarkerArray,
   transient local, ``world_rate``: one marker per body, poses in ``<robot_name>/base_link``),
   pub ``world/held_object`` (std_msgs/String, transient local, on every change: the name of the
   object between the fingers, '' for none), service ``world/reset`` (std_srvs/Trigger: objects
   back to their initial poses, the arm untouched).
+
+Torque per joint: parameter ``torque_enable.<joint>`` (bool, every arm joint and the gripper;
+``ros2 param set /px100/sim_driver torque_enable.gripper false`` switches off only the
+gripper); the ``torque_enable`` service sets all of them, ``reset`` turns them all on.
+
+Control mode per joint: parameter ``operating_mode.<joint>`` (string): '' (default: position;
+the gripper takes position or effort), 'position', 'velocity', 'torque' or 'duty'. The joint's
+setpoints on ``commands/joint_setpoints`` are then ``position`` [rad] (+ ``velocity``
+feed-forward), ``velocity`` alone [rad/s], ``effort`` [N*m] (torque: DYNAMIXEL current
+control) or ``effort`` as PWM duty in [-1, 1]; a setpoint of another kind is refused with the
+reason (never executed as something else). Changing the mode makes the joint hold (position:
+where it is; velocity: 0 rad/s; torque, duty: zero output). A new ``scene`` keeps both.
 
 Time. The physics runs at ``control_rate`` in fixed steps, advanced by the elapsed time in chunks
 (no dependence on timer precision):
@@ -52,13 +64,14 @@ from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from px100_control.control.pid import GAIN_FIELDS, PidGains
-from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
+from px100_control.control.simulator import ArmSimulator, MODES, parse_setpoints, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
                                       LATCHED_QOS, robot_name, robot_node_kwargs, robot_topic,
                                       spin_node)
 from px100_control.ros.parameter_schema import SIM_DRIVER
+from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
 from px100_control.ros.world import WorldPublisher
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -84,6 +97,8 @@ CATCH_UP = 2.0
 CHUNK_BUDGET = 0.008
 #: most of a CPU core the physics may need to follow the clock at a requested control_rate
 MAX_PHYSICS_LOAD = 0.8
+#: how often the graph is searched for a second driver in the namespace [s]
+PEER_CHECK_PERIOD = 2.0
 
 _CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
                 'clock_rate', 'dynamics_divider', 'object_width', 'gains_units', 'world_rate')
@@ -129,6 +144,17 @@ class SimDriverNode(Node):
             if error:
                 raise Px100Error(error)
             self.sim.set_gains(joint, self._to_gains(values, joint))
+        for joint in self._gain_joints:
+            self.declare_parameter(f'torque_enable.{joint}', True, ParameterDescriptor(
+                description=f'torque of {joint} on (false: the servo coasts)'))
+            mode = self.declare_parameter(f'operating_mode.{joint}', '', ParameterDescriptor(
+                description="'' (default), 'position', 'velocity', 'torque' [N*m] or 'duty' "
+                            '[-1, 1]: what commands/joint_setpoints carries for this joint'))
+            if mode.value:
+                error = self._mode_error(mode.name, mode.value)
+                if error:
+                    raise Px100Error(error)
+                self._set_mode(joint, mode.value)
         for note in self.sim.dynamics.notes:
             self.get_logger().info(f'dynamics: {note}')
         self._lock = threading.Lock()
@@ -188,6 +214,8 @@ class SimDriverNode(Node):
                                                 name='sim_driver_physics')
         self._physics_thread.start()
         self._make_timers()
+        self._duplicates = ''
+        self.create_timer(PEER_CHECK_PERIOD, self._check_peers, callback_group=self._group)
         mode = (f'own clock, real_time_factor {self._rtf:g}, /clock at {self._clock_rate:g} Hz'
                 if self._master else 'following the node clock')
         self.get_logger().info(
@@ -268,8 +296,26 @@ class SimDriverNode(Node):
             return 'this robot has no gripper to hold an object'
         return None
 
+    def _mode_error(self, name: str, value) -> Optional[str]:
+        if value not in ('',) + tuple(MODES):
+            return (f"{name} must be '' (default) or one of {', '.join(MODES)}, not {value!r} "
+                    '(Interbotix modes map to these: current -> torque, pwm -> duty)')
+        return None
+
+    def _set_mode(self, joint: str, mode: str) -> None:
+        """Put a joint in a control mode ('' = its default); the joint then holds."""
+        self.sim.set_mode(joint, mode or 'position')
+        if not mode:
+            self.sim.modes.pop(joint, None)  # the default (the gripper: position or effort)
+        self.get_logger().info(f"{joint}: {mode or 'default'} mode")
+
     def _validate_parameters(self, params: List[Parameter]) -> SetParametersResult:
         changed = {prm.name: prm.value for prm in params}
+        for name, value in changed.items():
+            if name.startswith('operating_mode.'):
+                error = self._mode_error(name, value)
+                if error:
+                    return SetParametersResult(successful=False, reason=error)
         if any(name.startswith('gains.') for name in changed):
             for joint in self._gain_joints:
                 keys = [f'gains.{joint}.{f}' for f in GAIN_FIELDS]
@@ -322,6 +368,21 @@ class SimDriverNode(Node):
                     values = {f: self.get_parameter(k).value for f, k in zip(GAIN_FIELDS, keys)}
                     self.sim.set_gains(joint, self._to_gains(values, joint))
                     self.get_logger().info(f'gains of {joint}: {self.sim.gains(joint)}')
+            torque = {n[len('torque_enable.'):]: bool(v) for n, v in changed.items()
+                      if n.startswith('torque_enable.')}
+            modes = {n[len('operating_mode.'):]: str(v) for n, v in changed.items()
+                     if n.startswith('operating_mode.')}
+            if modes:
+                self._catch_up()
+                for joint, mode in modes.items():
+                    self._set_mode(joint, mode)
+            if torque:
+                self._catch_up()
+                for joint, on in torque.items():
+                    self.sim.set_torque_enabled(on, [joint])
+                if len(torque) < len(self._gain_joints):
+                    self.get_logger().info('torque ' + ', '.join(
+                        f"{j} {'on' if on else 'off'}" for j, on in torque.items()))
             if 'object_width' in changed:
                 self.sim.set_object_width(float(changed['object_width']))
             if 'world_rate' in changed:
@@ -331,6 +392,12 @@ class SimDriverNode(Node):
                 old = self.sim       # a new plant: the arm at its sleep pose, the same gains
                 self.sim = ArmSimulator(self.model, old.config, scene=scene, gains={
                     joint: old.gains(joint) for joint in self._gain_joints})
+                for joint in self._gain_joints:  # the joints' modes and torque carry over
+                    mode = str(self.get_parameter(f'operating_mode.{joint}').value)
+                    if mode:
+                        self._set_mode(joint, mode)
+                    if not self.get_parameter(f'torque_enable.{joint}').value:
+                        self.sim.set_torque_enabled(False, [joint])
                 self.world.publish_now(self.sim, self._stamp_now())
                 self.get_logger().info(f"scene {changed['scene']!r} loaded; the arm is at its "
                                        'sleep pose, the objects at their initial poses')
@@ -647,6 +714,24 @@ class SimDriverNode(Node):
         diag.header.stamp = self.get_clock().now().to_msg()
         self.pub_diag.publish(diag)
 
+    def _check_peers(self) -> None:
+        """Log (once per change) and report on /diagnostics a second driver in the namespace."""
+        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
+        peers = live_peers(self, ns)
+        if has_unknown(peers):
+            return  # a node being discovered: named on the next check
+        message = duplicates_message({'drivers': peers['drivers']}, ns)
+        if message and message != self._duplicates:
+            self.get_logger().error(message)
+            status = DiagnosticStatus(level=DiagnosticStatus.ERROR,
+                                      name=f'{self.get_fully_qualified_name()}: peers',
+                                      message=message,
+                                      hardware_id=robot_name(self) or self.model.name)
+            diag = DiagnosticArray(status=[status])
+            diag.header.stamp = self.get_clock().now().to_msg()
+            self.pub_diag.publish(diag)
+        self._duplicates = message
+
     # --- callbacks -----------------------------------------------------------------------------
     def _catch_up(self) -> None:
         """Follow-clock mode: integrate up to now, so a command applies at its arrival time."""
@@ -655,8 +740,10 @@ class SimDriverNode(Node):
 
     def _on_setpoints(self, msg: JointState) -> None:
         try:
+            # without modes set, the position-only parser (and its messages) as before
             cmd = parse_setpoints(msg.name, msg.position, msg.velocity, msg.effort,
-                                  self.sim.command_joints, self.sim.gripper_name)
+                                  self.sim.command_joints, self.sim.gripper_name,
+                                  dict(self.sim.modes) or None)
             self.sim.check(cmd)
             with self._lock:
                 self._catch_up()
@@ -665,13 +752,16 @@ class SimDriverNode(Node):
             self._refuse(str(exc), msg.name)
 
     def _on_torque(self, request, response):
-        with self._lock:
-            self._catch_up()
-            self.sim.set_torque_enabled(request.data)
+        self._set_all_torque(bool(request.data))
         response.success = True
         response.message = 'torque on' if request.data else 'torque off'
         self.get_logger().info(f'{response.message} (all joints)')
         return response
+
+    def _set_all_torque(self, on: bool) -> None:
+        """Set every ``torque_enable.<joint>`` parameter (the callback applies them)."""
+        self.set_parameters([Parameter(f'torque_enable.{j}', value=on)
+                             for j in self._gain_joints])
 
     def _stamp_now(self) -> int:
         """Return the stamp [ns] of the current state (simulated time when owning the clock)."""
@@ -682,6 +772,7 @@ class SimDriverNode(Node):
             self._catch_up()
             self.sim.reset()
             self.world.publish_now(self.sim, self._stamp_now())
+        self._set_all_torque(True)
         response.success = True
         response.message = ('reset to the sleep pose, objects to their initial poses'
                             if self.world.has_objects else 'reset to the sleep pose')

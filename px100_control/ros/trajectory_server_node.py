@@ -15,6 +15,7 @@ ignored (reported on /diagnostics). Statuses go to ``trajectory/status`` and /di
 freshness and the watchdog use the steady clock; a ``joint_states`` read late because this
 node stalled counts from its stamp.
 """
+from dataclasses import fields
 import threading
 import time
 from typing import Optional
@@ -33,6 +34,7 @@ from px100_control.ros.goal_status import (cancel_matches, DIAG_LEVEL, diagnosti
                                            shape_error, STATUS_CODES, STATUS_NAMES, StatusBook,
                                            uuid_bytes)
 from px100_control.ros.parameter_schema import TRAJECTORY_SERVER
+from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
@@ -56,8 +58,7 @@ STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
 WATCHDOG_PERIOD = 0.02
 STALL_WARN = 0.25
 #: the parameters the goal executor reads (goal_executor.Settings)
-SETTINGS = [name for name in TRAJECTORY_SERVER.names
-            if name not in ('status_history', 'robot_model', 'robot_name')]
+SETTINGS = [f.name for f in fields(Settings)]
 
 
 class TrajectoryServerNode(Node):
@@ -111,6 +112,8 @@ class TrajectoryServerNode(Node):
         self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
         self._watchdog = self.create_timer(WATCHDOG_PERIOD, self._on_watchdog,
                                            clock=self._steady)
+        self._duplicates = ''
+        self.create_timer(2.0, self._check_peers, clock=self._steady)
         self._setpoint = JointState()
         self._setpoint.name = list(self._names)
         self._publish_status()
@@ -238,6 +241,17 @@ class TrajectoryServerNode(Node):
                             now)
         finally:
             self._stalls.note('a setpoint tick', time.monotonic_ns() - t0)
+
+    def _check_peers(self) -> None:
+        """Log (once per change) a second trajectory server in the namespace, by name."""
+        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
+        peers = live_peers(self, ns)
+        if has_unknown(peers):
+            return  # a node being discovered: named on the next check
+        message = duplicates_message({'trajectory_servers': peers['trajectory_servers']}, ns)
+        if message and message != self._duplicates:
+            self.get_logger().error(message)
+        self._duplicates = message
 
     def _on_watchdog(self) -> None:
         """Abort the running goal when joint_states stopped (the engine decides); log stalls."""

@@ -6,7 +6,8 @@ A thin adapter: the bodies come from ``ArmSimulator.objects()`` / ``object_poses
 messages from :mod:`px100_control.ros.world_msgs`. Both topics are transient local (a late
 subscriber gets the last state at once). ``world/markers`` follows ``world_rate`` in the
 driver's time (simulated time when it owns the clock); ``world/held_object`` is published when
-the held object changes (checked with every joint_states sample).
+the held object changes (checked at the same rate: the contact query costs about as much as a
+physics step).
 """
 from typing import List, Optional
 
@@ -23,6 +24,9 @@ from visualization_msgs.msg import MarkerArray
 def _time_msg(ns: int) -> TimeMsg:
     sec, nanosec = divmod(int(ns), 1_000_000_000)
     return TimeMsg(sec=sec, nanosec=nanosec)
+
+#: the ``scene`` value that picks the robot file's own scene
+AUTO_SCENE = 'auto'
 
 
 class WorldPublisher:
@@ -51,6 +55,9 @@ class WorldPublisher:
         """
         Return the Scene of a ``scene`` parameter value (None for '').
 
+        ``'auto'`` takes the robot file's ``scene`` key (none when it has no such key): the
+        default scene is laid out for the px100's reach and would stand in other arms' way.
+
         :param robot: the RobotModel whose reach every object must be in
 
         :raises Px100Error: the loader's reason (unknown scene, bad field, overlap, ...)
@@ -58,9 +65,12 @@ class WorldPublisher:
         if not isinstance(scene, str):
             raise InvalidInputError(f'scene must be a string (a name or a .yaml path), '
                                     f'not {scene!r}')
-        if not scene.strip():
+        scene = scene.strip()
+        if scene == AUTO_SCENE:
+            scene = str(((getattr(robot, 'extra', None) or {}).get('scene')) or '')
+        if not scene:
             return None
-        return load_scene(scene.strip(), robot=robot)
+        return load_scene(scene, robot=robot)
 
     def _bodies(self, sim) -> List:
         if self._objects is None:
@@ -78,16 +88,16 @@ class WorldPublisher:
     def tick(self, sim, stamp_ns: int) -> None:
         """Publish what is due at stamp_ns [ns] (called with every joint_states sample)."""
         bodies = self._bodies(sim)
-        if self._next_ns is None or stamp_ns >= self._next_ns or \
-                stamp_ns < self._next_ns - 2e9 / self.rate:       # the clock went back
-            stamp = _time_msg(stamp_ns)
-            self.pub_markers.publish(marker_array(
-                world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
-                stamp))
-            period = int(round(1e9 / self.rate))
-            self._next_ns = (stamp_ns + period if self._next_ns is None
-                             or abs(stamp_ns - self._next_ns) > period
-                             else self._next_ns + period)
+        if not (self._next_ns is None or stamp_ns >= self._next_ns or
+                stamp_ns < self._next_ns - 2e9 / self.rate):      # (the clock went back)
+            return
+        self.pub_markers.publish(marker_array(
+            world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
+            _time_msg(stamp_ns)))
+        period = int(round(1e9 / self.rate))
+        self._next_ns = (stamp_ns + period if self._next_ns is None
+                         or abs(stamp_ns - self._next_ns) > period
+                         else self._next_ns + period)
         held = (sim.held_object() if bodies else None) or ''
         if held != self._held:
             self._held = held

@@ -189,8 +189,9 @@ def test_replayed_setpoints_reproduce_joint_states(recorded_run, rclpy_context, 
         time.sleep(0.5)
     finally:
         probe.destroy_node()
+    # into a live driver on purpose: --send-commands (by default the replayer withholds them)
     replay = node_process('replay', bag_a, '--topics', SP, '--wait-for-subscribers', '30',
-                          '--min-subscribers', '2')
+                          '--min-subscribers', '2', '--send-commands')
     assert replay.proc.wait(START_TIMEOUT) == 0, replay.output()
     time.sleep(1.0)
     assert rec.stop(30.0) == 0, rec.output()

@@ -96,7 +96,9 @@ CORE = [
     ('robot_reboot_motors', [('self', REQ)] + CT + [('enable', REQ), ('smart_reboot', False)]),
     ('robot_write_commands', [('self', REQ), ('group_name', REQ), ('commands', REQ)]),
     ('robot_write_joint_command', [('self', REQ), ('joint_name', REQ), ('command', REQ)]),
-    ('robot_write_trajectory', [('self', REQ)] + CT + [('traj_type', REQ), ('raw_traj', REQ)]),
+    # ROS 1 (noetic) names the third argument 'type' and scripts pass it as type=...: both
+    # are accepted, so traj_type has a default here (a call without either raises TypeError)
+    ('robot_write_trajectory', [('self', REQ)] + CT + [('traj_type', None), ('raw_traj', None)]),
     ('robot_get_joint_states', [('self', REQ)]),
     ('robot_get_single_joint_state', [('self', REQ), ('name', REQ)]),
 ]

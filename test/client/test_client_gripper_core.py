@@ -105,7 +105,7 @@ def test_registers_and_operating_modes(bot):
     core.robot_set_motor_registers('single', 'waist', 'Goal_Current', 77)
     assert core.robot_get_motor_registers('single', 'waist', 'Goal_Current') == [77]
     assert core.robot_get_motor_registers('single', 'elbow', 'Goal_Current') == [0]
-    core.robot_set_operating_modes('group', 'arm', 'velocity')
+    assert core.robot_set_operating_modes('group', 'arm', 'linear_position') is False
     assert core.robot_get_robot_info('group', 'arm').mode == 'position'
     core.robot_set_operating_modes('group', 'arm', 'position', 'time', 1500, 250)
     assert core.robot_get_motor_registers('group', 'arm', 'Profile_Velocity') == [1500] * 4
@@ -162,3 +162,24 @@ def test_raw_commands_and_trajectory(bot):
     assert len(js.velocity) == len(js.name) and len(js.effort) == len(js.name)
     bot.arm.capture_joint_positions()
     bot.arm.set_trajectory_time(MOVING_TIME, ACCEL_TIME)
+
+
+def test_grasp_timing_from_the_xl430_figures_and_early_arm_move_warning(bot, capfd):
+    """travel_time follows the XL430 figures; an arm move during closing warns, not after."""
+    g = bot.gripper
+    no_load = 57 * 2 * math.pi / 60  # XL430-W250, 11.1 V
+    assert g.travel_time(250) == pytest.approx(g.horn_travel / (250 / 885 * no_load))
+    assert 0.9 < g.travel_time(250) < 1.1 and g.travel_time(150) > g.travel_time(350)
+    g.release(2.5)
+    capfd.readouterr()
+    g.grasp(0.2)  # far too short: the fingers are still closing
+    assert bot.arm.set_single_joint_position('waist', 0.2)
+    err = capfd.readouterr().err
+    assert 'still closing on nothing' in err and 'give grasp() a longer delay' in err, err
+    assert bot.arm.last_error == ''  # a warning, the move went ahead
+    g.release(2.5)
+    g.grasp(2.5)  # closed by now: no warning
+    capfd.readouterr()
+    assert bot.arm.set_single_joint_position('waist', 0.0)
+    assert 'still closing' not in capfd.readouterr().err
+    g.release(2.5)

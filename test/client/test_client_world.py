@@ -6,6 +6,8 @@ the held object seen while the gripper holds a cube, world reset puts it back; t
 signatures are untouched (test_client_api_surface).
 """
 
+import math
+
 from client_support import pause, wait_until
 import numpy as np
 from px100_control.client import InterbotixException
@@ -54,10 +56,10 @@ def test_pick_shows_held_object_and_world_reset_puts_it_back(bot):
     assert bot.world.held_object() == ''
     x, y, z = start
     bot.gripper.release(delay=0.3)
-    assert bot.arm.set_ee_pose_components(x=x, y=y, z=z + 0.05, pitch=1.27,
+    assert bot.arm.set_ee_pose_components(x=x, y=y, z=z + 0.05, pitch=math.pi / 2,
                                           moving_time=1.5)[1], bot.arm.last_error
     assert bot.arm.set_ee_cartesian_trajectory(z=-0.05, moving_time=1.0), bot.arm.last_error
-    bot.gripper.grasp(delay=0.8)
+    bot.gripper.grasp(delay=1.5)                     # closed on the cube before lifting
     assert bot.arm.set_ee_cartesian_trajectory(z=0.05, moving_time=1.0), bot.arm.last_error
     assert wait_until(lambda: bot.world.held_object() == 'green_cube', 2.0), \
         bot.world.held_object()

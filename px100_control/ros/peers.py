@@ -1,0 +1,76 @@
+"""
+Who else is in the robot's namespace: a second driver or trajectory_server, found in the graph.
+
+Two ``sim_driver`` (or a real driver beside one) in one namespace publish competing
+``joint_states`` and command the same joints; two ``trajectory_server`` execute every goal
+twice. Both show up as tracking aborts, so the nodes and the client look for them by name:
+
+- drivers: the nodes publishing ``<ns>/joint_states`` (a ``replayer`` is named separately);
+- trajectory servers: the nodes subscribing ``<ns>/trajectory/goal`` other than recorders.
+
+Names are ``/<namespace>/<node>`` as the graph reports them; two nodes of the same name count
+twice (one endpoint each).
+"""
+from typing import Dict, List
+
+#: node names that subscribe or publish the contract's topics without being a driver / server
+PASSIVE_NODES = ('recorder', 'replayer')
+
+
+#: what the graph reports for an endpoint whose node is not discovered yet
+UNKNOWN = '_NODE_NAME_UNKNOWN_'
+
+
+def _full(info) -> str:
+    if info.node_name == UNKNOWN:
+        return '(a node not identified yet)'
+    return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+
+
+def has_unknown(peers: Dict[str, List[str]]) -> bool:
+    """Return True when some endpoint's node is not identified yet (ask again shortly)."""
+    return any(n.startswith('(') for names in peers.values() for n in names)
+
+
+def _is_passive(name: str) -> bool:
+    return any(name == p or name.startswith(p + '_') for p in PASSIVE_NODES)
+
+
+def live_peers(node, ns: str) -> Dict[str, List[str]]:
+    """
+    Return {'drivers': [...], 'trajectory_servers': [...], 'replayers': [...]} under ``ns``.
+
+    :param node: any rclpy node (its graph cache is used)
+    :param ns: the robot namespace, '/px100' ('' or '/' for the root)
+    """
+    prefix = ns.rstrip('/') + '/'
+    drivers, replayers = [], []
+    for info in node.get_publishers_info_by_topic(prefix + 'joint_states'):
+        name = _full(info)
+        if info.node_name.startswith('replayer'):
+            replayers.append(name)
+        elif not _is_passive(info.node_name):
+            drivers.append(name)  # two nodes may share one name: count endpoints
+    servers = []
+    for info in node.get_subscriptions_info_by_topic(prefix + 'trajectory/goal'):
+        name = _full(info)
+        if not _is_passive(info.node_name):
+            servers.append(name)
+    return {'drivers': sorted(drivers), 'trajectory_servers': sorted(servers),
+            'replayers': sorted(set(replayers))}
+
+
+def duplicates_message(peers: Dict[str, List[str]], ns: str) -> str:
+    """Return a sentence naming a second driver / trajectory_server under ``ns`` ('' if none)."""
+    parts = []
+    for key, what in (('drivers', 'drivers publish joint_states'),
+                      ('trajectory_servers', 'trajectory servers take trajectory/goal')):
+        names = peers.get(key, [])
+        if len(names) > 1:
+            shown = [n if names.count(n) == 1 else f'{n} (x{names.count(n)}, same name)'
+                     for n in sorted(set(names))]
+            parts.append(f"{len(names)} {what} under '{ns or '/'}': {', '.join(shown)}")
+    if not parts:
+        return ''
+    return ('; '.join(parts) + ': they fight over the same joints (moves abort, the arm '
+            'jitters); stop all but one (e.g. an in-process bringup beside a running bringup).')

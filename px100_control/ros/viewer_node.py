@@ -1,0 +1,357 @@
+"""
+viewer: a live 3D page of the robot and its world in the browser (viser), with teleoperation.
+
+``ros2 run px100_control viewer`` serves http://127.0.0.1:8080 (parameters ``host``, ``port``).
+The node is a thin adapter over :mod:`px100_control.viewer` (state + viser scene, no rclpy):
+
+- sub ``robot_description`` (transient local), ``joint_states``, ``world/markers`` (MarkerArray,
+  transient local), ``world/held_object`` (String, transient local), ``trajectory/goal``,
+  ``trajectory/status`` (transient local), ``ik/request``, ``ik/solution``, ``ik/status``,
+  ``/diagnostics``: the page shows the robot, the world, the end-effector trail, the active
+  trajectory's path and target, the last IK target, the goal status and the last error;
+- controls act only through the interfaces a script uses: sliders and Home/Sleep publish
+  ``trajectory/goal``; the end-effector gizmo publishes ``ik/request`` and then a goal to the
+  matching ``ik/solution``; the gripper buttons publish ``commands/joint_setpoints`` (effort,
+  as the client's grasp/release); ``world/reset`` (Trigger) and ``torque_enable`` (SetBool).
+
+Parameters: ``host`` ('127.0.0.1'), ``port`` (8080), ``read_only`` (False: no controls when
+True), ``allow_remote_control`` (False: a host other than loopback forces read-only unless
+True), ``rate`` (30 Hz, 1..60: page updates), ``trail_length`` (500 points),
+``moving_time`` (1.0 s: shortest move of a control), plus ``robot_model``/``robot_name``.
+With ``--bag BAG`` it plays a recorded bag in the page instead (no ROS graph needed).
+"""
+import collections
+import math
+import sys
+import threading
+import time
+
+from action_msgs.msg import GoalStatusArray
+from builtin_interfaces.msg import Duration, Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
+                                      LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
+                                      robot_topic, spin_node)
+from px100_control.ros.parameter_schema import VIEWER
+from px100_control.viewer.bag_view import serve_bag
+from px100_control.viewer.scene import ViewerScene
+from px100_control.viewer.state import GOAL_STATUS_NAMES, stamp_seconds, Throttle, \
+    ViewerState
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from visualization_msgs.msg import MarkerArray
+
+LOOPBACK = ('127.0.0.1', 'localhost', '::1')
+#: gripper effort of the Open/Close buttons [N*m]: the client's default grasp pressure
+#: (PWM 250 of 885 at 1.4 N*m stall torque)
+GRIPPER_EFFORT = 250.0 / 885.0 * 1.4
+#: fraction of a joint's velocity limit a control's move may use
+SPEED_FRACTION = 0.5
+#: shortest period between two goals or IK requests from dragging [s]
+DRAG_PERIOD = 0.2
+
+
+def _time_msg(t: float) -> Time:
+    ns = int(round(t * 1e9))
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+class ViewerNode(Node):
+    """The viewer node (see the module doc); ``scene`` is built from the parameters."""
+
+    def __init__(self, **kwargs):
+        super().__init__('viewer', **robot_node_kwargs('viewer', kwargs))
+        self.model = declare_robot_parameters(self)
+        declare_schema(self, VIEWER)
+        value = self.get_parameter
+        host, port = value('host').value, value('port').value
+        read_only, remote = value('read_only').value, value('allow_remote_control').value
+        rate, trail = float(value('rate').value), int(value('trail_length').value)
+        self.moving_time = float(value('moving_time').value)
+        if not 1.0 <= rate <= 60.0:
+            raise ValueError(f'viewer rate must be within 1..60 Hz, not {rate}')
+        if not 2 <= trail <= 100000:
+            raise ValueError(f'viewer trail_length must be within 2..100000, not {trail}')
+        if not 1 <= int(port) <= 65535:
+            raise ValueError(f'viewer port must be within 1..65535, not {port}')
+        if str(host) not in LOOPBACK and not read_only and not remote:
+            self.get_logger().warning(
+                f'host {host} is not loopback: read-only (set allow_remote_control to keep '
+                'the controls)')
+            read_only = True
+        self.read_only = bool(read_only)
+        self.period = 1.0 / rate
+        self.state = ViewerState(trail_points=trail)
+        self._lock = threading.Lock()
+        self._actions = collections.deque(maxlen=100)
+        self._pending_goal = None
+        self._pending_ik = None
+        self._goal_throttle = Throttle(DRAG_PERIOD)
+        self._ik_throttle = Throttle(DRAG_PERIOD)
+        self._render_throttle = Throttle(self.period)
+        self._ik_ids = collections.deque(maxlen=20)
+        self._last_id = 0.0
+        self._goal_ids = {}
+        arm = [(n, float(lo), float(hi)) for n, lo, hi in
+               zip(self.model.joint_names, self.model.lower, self.model.upper)]
+        self.scene = ViewerScene(host=str(host), port=int(port), read_only=self.read_only,
+                                 arm_joints=arm, actions=self._on_action,
+                                 title=f'{robot_name(self) or self.model.name} viewer')
+        self.scene.attach(self.state)
+        self.url = f'http://{host}:{port}'
+        self._base_frame = frame_id(self, self.model.base_frame)
+        self.create_subscription(String, robot_topic(self, 'robot_description'),
+                                 self._on_description, LATCHED_QOS)
+        self.create_subscription(JointState, robot_topic(self, 'joint_states'),
+                                 self._on_joint_states, 10)
+        self.create_subscription(MarkerArray, robot_topic(self, 'world/markers'),
+                                 self._on_markers, LATCHED_QOS)
+        self.create_subscription(String, robot_topic(self, 'world/held_object'),
+                                 self._on_held, LATCHED_QOS)
+        self.create_subscription(JointTrajectory, robot_topic(self, 'trajectory/goal'),
+                                 self._on_goal, 10)
+        self.create_subscription(GoalStatusArray, robot_topic(self, 'trajectory/status'),
+                                 self._on_status, LATCHED_QOS)
+        self.create_subscription(PoseStamped, robot_topic(self, 'ik/request'),
+                                 self._on_ik_request, 10)
+        self.create_subscription(JointState, robot_topic(self, 'ik/solution'),
+                                 self._on_ik_solution, 10)
+        self.create_subscription(DiagnosticStatus, robot_topic(self, 'ik/status'),
+                                 self._on_ik_status, 10)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 10)
+        if not self.read_only:
+            self.pub_goal = self.create_publisher(
+                JointTrajectory, robot_topic(self, 'trajectory/goal'), 10)
+            self.pub_ik = self.create_publisher(PoseStamped, robot_topic(self, 'ik/request'), 10)
+            self.pub_setpoints = self.create_publisher(
+                JointState, robot_topic(self, 'commands/joint_setpoints'), 10)
+            self.cli_torque = self.create_client(SetBool, robot_topic(self, 'torque_enable'))
+            self.cli_world_reset = self.create_client(Trigger, robot_topic(self, 'world/reset'))
+        self.create_timer(self.period, self._on_timer)
+        self.get_logger().info(f'viewer on {self.url} '
+                               f"({'read-only' if self.read_only else 'with controls'})")
+
+    # -- ROS -> state -----------------------------------------------------------------------
+    def _now(self) -> float:
+        return time.monotonic()
+
+    def _on_description(self, msg: String) -> None:
+        with self._lock:
+            self.state.set_robot(msg.data)
+            self.scene.load_robot(self.state)
+            if self.state.robot_error:
+                self.get_logger().error(self.state.robot_error)
+
+    def _on_joint_states(self, msg: JointState) -> None:
+        with self._lock:
+            self.state.set_joints(msg.name, msg.position, stamp_seconds(msg.header.stamp))
+        self._render()
+
+    def _on_markers(self, msg: MarkerArray) -> None:
+        with self._lock:
+            self.state.set_markers(msg.markers)
+
+    def _on_held(self, msg: String) -> None:
+        with self._lock:
+            self.state.set_held(msg.data)
+
+    def _on_goal(self, msg: JointTrajectory) -> None:
+        with self._lock:
+            self.state.set_goal(stamp_seconds(msg.header.stamp), msg.joint_names,
+                                [list(p.positions) for p in msg.points])
+
+    def _on_status(self, msg: GoalStatusArray) -> None:
+        if not msg.status_list:
+            return
+        latest = max(msg.status_list, key=lambda s: stamp_seconds(s.goal_info.stamp))
+        with self._lock:
+            self.state.set_goal_status(stamp_seconds(latest.goal_info.stamp),
+                                       GOAL_STATUS_NAMES.get(latest.status, str(latest.status)))
+
+    def _on_ik_request(self, msg: PoseStamped) -> None:
+        p, q = msg.pose.position, msg.pose.orientation
+        with self._lock:
+            self.state.set_ik_target((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+
+    def _on_ik_status(self, msg: DiagnosticStatus) -> None:
+        if msg.level >= DiagnosticStatus.ERROR:
+            with self._lock:
+                self.state.set_error(f'ik: {msg.message}')
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        errors = [s for s in msg.status if s.level >= DiagnosticStatus.ERROR]
+        if errors:
+            with self._lock:
+                self.state.set_error(f'{errors[-1].name}: {errors[-1].message}')
+
+    # -- rendering --------------------------------------------------------------------------
+    def _render(self) -> None:
+        now = self._now()
+        if not self._render_throttle.due(now):
+            return
+        self._render_throttle.mark(now)
+        with self._lock:
+            self.scene.render(self.state, now)
+
+    def _on_timer(self) -> None:
+        self._run_actions()
+        self._render()
+
+    # -- page -> ROS ------------------------------------------------------------------------
+    def _on_action(self, name: str, **values) -> None:
+        """Queue a page action for the executor's thread (viser calls this in its threads)."""
+        self._actions.append((name, values))
+
+    def _run_actions(self) -> None:
+        now = self._now()
+        while self._actions:
+            name, values = self._actions.popleft()
+            try:
+                self._act(name, values)
+            except Exception as exc:  # noqa: B902 - a bad action must not stop the node
+                self.get_logger().error(f'viewer action {name} failed: {exc}')
+                with self._lock:
+                    self.state.set_error(f'viewer {name}: {exc}')
+        if self._pending_goal is not None and self._goal_throttle.due(now):
+            self._goal_throttle.mark(now)
+            self.send_goal(self._pending_goal)
+            self._pending_goal = None
+        if self._pending_ik is not None and self._ik_throttle.due(now):
+            self._ik_throttle.mark(now)
+            self.send_ik_request(*self._pending_ik)
+            self._pending_ik = None
+
+    def _act(self, name: str, values: dict) -> None:
+        if self.read_only:
+            return
+        if name == 'joint_goal':
+            self._pending_goal = dict(values['positions'])
+        elif name == 'ee_target':
+            self._pending_ik = (values['position'], values.get('quat_xyzw'))
+        elif name in ('home', 'sleep'):
+            pose = self.model.home if name == 'home' else self.model.sleep
+            self.send_goal(dict(zip(self.model.joint_names, (float(v) for v in pose))))
+        elif name in ('gripper_open', 'gripper_close'):
+            self.send_gripper(GRIPPER_EFFORT if name == 'gripper_open' else -GRIPPER_EFFORT)
+        elif name == 'reset_scene':
+            self._call(self.cli_world_reset, Trigger.Request(), 'scene reset')
+        elif name in ('torque_on', 'torque_off'):
+            self._call(self.cli_torque, SetBool.Request(data=name == 'torque_on'),
+                       name.replace('_', ' '))
+        else:
+            raise ValueError(f'unknown action {name!r}')
+
+    def _new_id(self) -> Time:
+        t = max(time.time(), self._last_id + 1e-6)
+        self._last_id = t
+        return _time_msg(t)
+
+    def send_goal(self, positions: dict) -> Time:
+        """Publish a one-point trajectory goal to positions (joint -> rad/m); return its id."""
+        names = [n for n in self.model.joint_names if n in positions]
+        target = [float(positions[n]) for n in names]
+        t = self.moving_time
+        for n, q in zip(names, target):
+            k = self.model.joint_index(n)
+            lo, hi = float(self.model.lower[k]), float(self.model.upper[k])
+            if not lo <= q <= hi:
+                raise ValueError(f'{n} = {q:.3f} is outside its limits [{lo:.3f}, {hi:.3f}]')
+            now = self.state.joints.get(n)
+            vmax = float(self.model.velocity_limits[k]) * SPEED_FRACTION
+            if now is not None and vmax > 0:
+                t = max(t, abs(q - now) / vmax)
+        msg = JointTrajectory()
+        msg.header.stamp = self._new_id()
+        msg.header.frame_id = self._base_frame
+        msg.joint_names = names
+        pt = JointTrajectoryPoint(positions=target)
+        ns = int(round(t * 1e9))
+        pt.time_from_start = Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        msg.points = [pt]
+        self.pub_goal.publish(msg)
+        return msg.header.stamp
+
+    def send_ik_request(self, position, quat_xyzw=None) -> Time:
+        """Publish an ik/request (quat None = orientation free); its solution becomes a goal."""
+        msg = PoseStamped()
+        msg.header.stamp = self._new_id()
+        msg.header.frame_id = self._base_frame
+        msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = \
+            (float(v) for v in position)
+        if quat_xyzw is not None:
+            q = msg.pose.orientation
+            q.x, q.y, q.z, q.w = (float(v) for v in quat_xyzw)
+        else:
+            q = msg.pose.orientation
+            q.x = q.y = q.z = q.w = 0.0
+        self._ik_ids.append((msg.header.stamp.sec, msg.header.stamp.nanosec))
+        self.pub_ik.publish(msg)
+        return msg.header.stamp
+
+    def _on_ik_solution(self, msg: JointState) -> None:
+        key = (msg.header.stamp.sec, msg.header.stamp.nanosec)
+        if self.read_only or key not in self._ik_ids:
+            return
+        self._ik_ids.remove(key)
+        if len(msg.position) and all(math.isfinite(v) for v in msg.position):
+            try:
+                self.send_goal(dict(zip(msg.name, msg.position)))
+            except ValueError as exc:
+                with self._lock:
+                    self.state.set_error(f'viewer: {exc}')
+
+    def send_gripper(self, effort: float) -> None:
+        """Drive the gripper with effort [N*m] (> 0 opens), as the client's release/grasp."""
+        gripper = self.model.gripper
+        if gripper is None:
+            raise ValueError(f'robot {self.model.name} has no gripper')
+        msg = JointState(name=[gripper.joint], effort=[float(effort)])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.pub_setpoints.publish(msg)
+
+    def _call(self, client, request, what: str) -> None:
+        if not client.service_is_ready():
+            with self._lock:
+                self.state.set_error(f'{what}: service {client.srv_name} is not available')
+            return
+
+        def done(future):
+            try:
+                res = future.result()
+                text = f'{what}: ' + ('done' if res.success else f'refused ({res.message})')
+            except Exception as exc:  # noqa: B902 - the call failed in the middleware
+                text = f'{what}: failed ({exc})'
+            with self._lock:
+                self.state.set_note(text)
+        client.call_async(request).add_done_callback(done)
+
+    def destroy_node(self):
+        """Stop the web server too."""
+        self.scene.close()
+        return super().destroy_node()
+
+
+def _add_arguments(parser) -> None:
+    parser.add_argument('--bag', default=None,
+                        help='play this bag in the page (time slider) instead of the live graph')
+    parser.add_argument('--host', default='127.0.0.1', help='with --bag: bind address')
+    parser.add_argument('--port', type=int, default=8080, help='with --bag: port')
+
+
+def main(args=None) -> int:
+    """Run the viewer (``ros2 run px100_control viewer``), or play a bag with ``--bag``."""
+    description = ('Serve a live 3D page of the robot (http://127.0.0.1:8080) with joint '
+                   'sliders, an end-effector gizmo and buttons, or play a bag with --bag.')
+    options, _ = parse_cli(description, args, _add_arguments, (VIEWER,))
+    if options.bag:
+        return serve_bag(options.bag, host=options.host, port=options.port)
+    return spin_node(lambda opts: ViewerNode(), args, description, _add_arguments,
+                     schema=VIEWER)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

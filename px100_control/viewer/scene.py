@@ -1,0 +1,341 @@
+"""
+Draw a :class:`~px100_control.viewer.state.ViewerState` in the browser with viser.
+
+viser serves its own web client (bundled in the wheel, works offline) over HTTP + websocket.
+The robot comes from its URDF text through viser's URDF support (yourdfpy); world bodies,
+trail, trajectory path, IK target and a status panel are viser scene nodes and GUI elements.
+The scene root is the robot's base frame, +z up; units m, rad.
+
+Controls (absent in read-only mode) report the user's actions through ``actions``, a callable
+``actions(name, **values)``; the adapter turns them into ROS messages. Names: ``joint_goal``
+(positions: dict joint -> rad/m), ``ee_target`` (position xyz [m], quat_xyzw or None = free),
+and ``home``, ``sleep``, ``gripper_open``, ``gripper_close``, ``reset_scene``, ``torque_on``,
+``torque_off``. They run in viser's threads: the adapter must hand them to its own thread.
+
+Cost: :meth:`ViewerScene.render` does nothing while no browser is connected; a browser that
+connects gets everything redrawn.
+"""
+import io
+import threading
+from typing import Callable, Dict, Optional, Sequence, Tuple
+
+import numpy as np
+
+from px100_control.viewer.state import ViewerState
+
+#: buttons of the controls panel: (action name, label)
+BUTTONS = (('home', 'Home'), ('sleep', 'Sleep'), ('gripper_open', 'Open gripper'),
+           ('gripper_close', 'Close gripper'), ('reset_scene', 'Reset scene'),
+           ('torque_on', 'Torque on'), ('torque_off', 'Torque off'))
+#: seconds after the user's last slider or gizmo input before they follow the robot again
+FOLLOW_DELAY = 1.5
+#: end-effector link names tried in order (suffix match after the robot-name prefix)
+EE_LINKS = ('ee_gripper_link', 'ee_arm_link', 'ee_link', 'tool0')
+
+
+def _wxyz(quat_xyzw: Sequence[float]) -> Tuple[float, float, float, float]:
+    x, y, z, w = (float(v) for v in quat_xyzw)
+    return (w, x, y, z)
+
+
+def _quat_xyzw(rot: np.ndarray) -> Tuple[float, float, float, float]:
+    """Return the unit quaternion (x, y, z, w) of a 3x3 rotation matrix."""
+    import viser.transforms as vtf
+    w, x, y, z = vtf.SO3.from_matrix(np.asarray(rot, dtype=float)).wxyz
+    return (float(x), float(y), float(z), float(w))
+
+
+def _rgb255(rgba: Sequence[float]) -> Tuple[int, int, int]:
+    return tuple(int(round(255 * min(1.0, max(0.0, float(c))))) for c in rgba[:3])
+
+
+class UrdfKinematics:
+    """
+    Forward kinematics of a URDF text through yourdfpy (its own model, not the drawn one).
+
+    :raises ValueError: the text is not a loadable URDF
+    """
+
+    def __init__(self, urdf_xml: str, load_meshes: bool = False):
+        import yourdfpy
+        try:
+            self.urdf = yourdfpy.URDF.load(
+                io.BytesIO(urdf_xml.encode('utf-8')), build_scene_graph=True,
+                build_collision_scene_graph=False, load_meshes=load_meshes,
+                load_collision_meshes=False)
+        except Exception as exc:  # noqa: B902 - yourdfpy/lxml raise many kinds
+            raise ValueError(f'robot_description is not a usable URDF: {exc}') from None
+        self.base = self.urdf.base_link
+        links = list(self.urdf.link_map)
+        self.ee = next((lk for suffix in EE_LINKS for lk in links
+                        if lk == suffix or lk.endswith('/' + suffix)), links[-1])
+        self.actuated = set(self.urdf.actuated_joint_names)
+        self._lock = threading.Lock()
+
+    def ee_pose(self, joints: Dict[str, float]):
+        """Return the end effector's (xyz [m], quat_xyzw) in the base frame for joints."""
+        cfg = {n: v for n, v in joints.items() if n in self.actuated}
+        with self._lock:
+            if cfg:
+                self.urdf.update_cfg(cfg)
+            T = self.urdf.get_transform(self.ee, self.base)
+        return tuple(float(v) for v in T[:3, 3]), _quat_xyzw(T[:3, :3])
+
+
+class ViewerScene:
+    """
+    The page: a viser server drawing a ViewerState, with optional controls.
+
+    :param host/port: where viser listens (127.0.0.1 unless asked otherwise)
+    :param read_only: no sliders, buttons or gizmo at all
+    :param arm_joints: ((name, lower, upper), ...) of the arm's sliders [rad or m]
+    :param actions: callable(name, **values) for the user's actions (see the module doc)
+    :param server: an existing viser server to draw into (then host/port are unused)
+    """
+
+    def __init__(self, host: str = '127.0.0.1', port: int = 8080, read_only: bool = True,
+                 arm_joints: Sequence[Tuple[str, float, float]] = (),
+                 actions: Optional[Callable] = None, title: str = 'px100_control',
+                 server=None):
+        import viser
+        self.server = server or viser.ViserServer(host=host, port=port, label=title,
+                                                  verbose=False)
+        self.read_only = bool(read_only)
+        self.actions = actions or (lambda name, **values: None)
+        self.arm_joints = tuple(arm_joints)
+        self._lock = threading.RLock()
+        self._drawn: Dict[str, int] = {}
+        self._urdf_vis = None
+        self.kin: Optional[UrdfKinematics] = None
+        self._bodies: Dict = {}
+        self._handles: Dict = {}
+        self._redraw = False
+        self._last_user_input = -1e9
+        self._dragging = False
+        self.server.initial_camera.position = (0.26, -0.30, 0.22)
+        self.server.initial_camera.look_at = (0.12, 0.0, 0.08)
+        self.server.scene.add_grid('/grid', width=1.0, height=1.0, cell_size=0.05,
+                                   section_size=0.25)
+        self.status = self.server.gui.add_markdown('state t = 0.000000 s', order=0)
+        self.sliders = {}
+        self.buttons = {}
+        self.gizmo = None
+        self.orientation_box = None
+        if not self.read_only:
+            self._add_controls()
+        self.server.on_client_connect(self._on_connect)
+
+    # -- controls ----------------------------------------------------------------------------
+    def _add_controls(self) -> None:
+        gui = self.server.gui
+        with gui.add_folder('Joints', order=1):
+            for name, lo, hi in self.arm_joints:
+                s = gui.add_slider(name, min=float(lo), max=float(hi), step=0.01,
+                                   initial_value=float(min(max(0.0, lo), hi)))
+                s.on_update(self._on_slider)
+                self.sliders[name] = s
+        with gui.add_folder('Actions', order=2):
+            for action, label in BUTTONS:
+                b = gui.add_button(label)
+                b.on_click(lambda event, a=action: self._user(a))
+                self.buttons[action] = b
+            self.orientation_box = gui.add_checkbox(
+                'Gizmo orientation', False,
+                hint='rotate the gizmo and send its orientation to IK (off: position only, '
+                     'orientation free)')
+        self.gizmo = self.server.scene.add_transform_controls(
+            '/ee_target_gizmo', scale=0.1, line_width=3.0, depth_test=False,
+            disable_rotations=True)
+        self.gizmo.on_update(self._on_gizmo)
+
+        @self.orientation_box.on_update
+        def _(event) -> None:
+            self.gizmo.disable_rotations = not self.orientation_box.value
+
+    def _now(self) -> float:
+        import time
+        return time.monotonic()
+
+    def _user(self, action: str, **values) -> None:
+        self._last_user_input = self._now()
+        self.actions(action, **values)
+
+    def _on_slider(self, event) -> None:
+        if event.client is None:      # set by the server (following the robot)
+            return
+        self._user('joint_goal', positions={n: float(s.value) for n, s in self.sliders.items()})
+
+    def _on_gizmo(self, event) -> None:
+        if event.client is None:
+            return
+        self._dragging = event.phase != 'end'
+        w, x, y, z = (float(v) for v in event.target.wxyz)
+        quat = (x, y, z, w) if self.orientation_box is not None and \
+            self.orientation_box.value else None
+        self._user('ee_target', position=tuple(float(v) for v in event.target.position),
+                   quat_xyzw=quat)
+
+    def _on_connect(self, client) -> None:
+        # no lock here: viser may call this while it holds its own locks, which render()
+        # takes after self._lock
+        self._redraw = True            # everything is redrawn at the next render
+
+    # -- drawing -----------------------------------------------------------------------------
+    def has_clients(self) -> bool:
+        """Return True while at least one browser is connected."""
+        return bool(self.server.get_clients())
+
+    def attach(self, state: ViewerState) -> None:
+        """Let state compute end-effector poses through this scene's robot kinematics."""
+        state.fk = lambda q: self.kin.ee_pose(q) if self.kin is not None else None
+
+    def render(self, state: ViewerState, now: float, force: bool = False) -> bool:
+        """
+        Send what changed in state since the last render; return True if anything was sent.
+
+        Nothing happens while no browser is connected (unless force). now [s] decides when the
+        controls follow the robot again after the user's last input.
+        """
+        if not force and not self.has_clients():
+            return False
+        with self._lock:
+            if self._redraw:
+                self._redraw = False
+                self._drawn.clear()
+            changed = [p for p in state.PARTS if self._drawn.get(p) != state.version[p]]
+            if not changed:
+                return False
+            with self.server.atomic():
+                for part in changed:
+                    getattr(self, '_draw_' + part)(state, now)
+                    self._drawn[part] = state.version[part]
+        return True
+
+    def load_robot(self, state: ViewerState) -> None:
+        """(Re)load the robot of state.urdf_xml; a bad URDF is reported in state.robot_error."""
+        from viser.extras import ViserUrdf
+        with self._lock:
+            if self._urdf_vis is not None:
+                self._urdf_vis.remove()
+                self._urdf_vis = None
+            try:
+                self.kin = UrdfKinematics(state.urdf_xml)
+                drawn = UrdfKinematics(state.urdf_xml, load_meshes=True).urdf
+                self._urdf_vis = ViserUrdf(self.server, drawn, root_node_name='/robot')
+                state.robot_error = ''
+            except ValueError as exc:
+                self.kin = None
+                state.robot_error = str(exc)
+            state.version['status'] += 1
+            self._drawn.pop('joints', None)
+
+    def _draw_robot(self, state: ViewerState, now: float) -> None:
+        if state.urdf_xml and (self.kin is None or self._urdf_vis is None) and \
+                not state.robot_error:
+            self.load_robot(state)
+
+    def _draw_joints(self, state: ViewerState, now: float) -> None:
+        if self._urdf_vis is None or not state.joints:
+            return
+        cfg = {n: v for n, v in state.joints.items() if n in self.kin.actuated}
+        self._urdf_vis.update_cfg(cfg)
+        following = now - self._last_user_input > FOLLOW_DELAY and not self._dragging
+        if not following:
+            return
+        for name, slider in self.sliders.items():
+            v = state.joints.get(name)
+            if v is not None and abs(v - slider.value) > 0.005:
+                slider.value = float(min(max(v, slider.min), slider.max))
+        if self.gizmo is not None:
+            pose = state.ee_pose()
+            if pose is not None and np.linalg.norm(np.subtract(pose[0], self.gizmo.position)) \
+                    > 0.002:
+                self.gizmo.position = pose[0]
+                self.gizmo.wxyz = _wxyz(pose[1])
+
+    def _draw_world(self, state: ViewerState, now: float) -> None:
+        scene = self.server.scene
+        seen = set()
+        for key, body in state.bodies.items():
+            node = f'/world/{body.ns}/{body.name}'
+            seen.add(node)
+            old = self._bodies.get(node)
+            shape_key = (body.shape, body.size, body.rgba, body.name == state.held)
+            if old is None or old[0] != shape_key:
+                if old is not None:
+                    old[1].remove()
+                color = _rgb255(body.rgba)
+                opacity = body.rgba[3] if body.rgba[3] < 1.0 else None
+                kw = {'position': body.position, 'wxyz': _wxyz(body.quat_xyzw)}
+                if body.shape == 'box':
+                    h = scene.add_box(node, color=color, dimensions=body.size,
+                                      opacity=opacity, **kw)
+                elif body.shape == 'cylinder':
+                    h = scene.add_cylinder(node, radius=body.size[0], height=body.size[1],
+                                           color=color, opacity=opacity, **kw)
+                else:
+                    h = scene.add_icosphere(node, radius=body.size[0], color=color,
+                                            opacity=opacity, **kw)
+                self._bodies[node] = (shape_key, h)
+            else:
+                h = old[1]
+                h.position = body.position
+                h.wxyz = _wxyz(body.quat_xyzw)
+        for node in [n for n in self._bodies if n not in seen]:
+            self._bodies.pop(node)[1].remove()
+        self._remove('/world/held_label')
+        held = [b for b in state.bodies.values() if state.held and b.name == state.held]
+        if held:
+            x, y, z = held[0].position
+            self._handles['/world/held_label'] = scene.add_label(
+                '/world/held_label', f'held: {held[0].name}', position=(x, y, z + 0.04))
+
+    def _remove(self, name: str) -> None:
+        handle = self._handles.pop(name, None)
+        if handle is not None:
+            handle.remove()
+
+    def _lines(self, name: str, points, color, thickness: float) -> None:
+        if len(points) < 2:
+            self._remove(name)
+            return
+        pts = np.asarray(points, dtype=np.float32)
+        segments = np.stack([pts[:-1], pts[1:]], axis=1)
+        handle = self._handles.get(name)
+        if handle is None:
+            self._handles[name] = self.server.scene.add_line_segments(
+                name, segments, colors=color, thickness=thickness, thickness_units='screen')
+        else:       # update in place: the page keeps its node instead of rebuilding it
+            handle.colors = np.tile(np.asarray(color, dtype=np.uint8), (len(segments), 2, 1))
+            handle.points = segments
+
+    def _draw_trail(self, state: ViewerState, now: float) -> None:
+        self._lines('/trail', list(state.trail.points), (255, 140, 0), 2.0)
+
+    def _draw_path(self, state: ViewerState, now: float) -> None:
+        self._lines('/trajectory/path', state.path, (30, 110, 255), 3.0)
+        self._remove('/trajectory/target')
+        if state.path and state.target is not None:
+            self._handles['/trajectory/target'] = self.server.scene.add_icosphere(
+                '/trajectory/target', radius=0.008, color=(30, 110, 255),
+                position=state.target)
+
+    def _draw_ik(self, state: ViewerState, now: float) -> None:
+        self._remove('/ik_target')
+        if state.ik_target is None:
+            return
+        xyz, quat = state.ik_target
+        if any(quat):
+            self._handles['/ik_target'] = self.server.scene.add_frame(
+                '/ik_target', axes_length=0.04, axes_radius=0.002, position=xyz,
+                wxyz=_wxyz(quat))
+        else:
+            self._handles['/ik_target'] = self.server.scene.add_icosphere(
+                '/ik_target', radius=0.007, color=(200, 0, 200), position=xyz)
+
+    def _draw_status(self, state: ViewerState, now: float) -> None:
+        self.status.content = '  \n'.join(state.status_lines())
+
+    def close(self) -> None:
+        """Stop the web server."""
+        self.server.stop()

@@ -1,0 +1,102 @@
+"""
+Ctrl-C in a client script: the goal is canceled, the arm holds, one line, exit 130.
+
+Real processes: a bringup (sim_driver, ik_service, trajectory_server) in its own namespace, the
+script in another process, SIGINT sent to the script mid-move; this test watches joint_states.
+"""
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+class _Watcher:
+    """Record (monotonic time, waist position) from joint_states."""
+
+    def __init__(self, node, ns):
+        from sensor_msgs.msg import JointState
+        self.samples = []
+        self.lock = threading.Lock()
+        node.create_subscription(JointState, f'/{ns}/joint_states', self._cb, 50)
+
+    def _cb(self, msg):
+        if 'waist' in msg.name:
+            with self.lock:
+                self.samples.append((time.monotonic(), msg.position[list(msg.name).index(
+                    'waist')]))
+
+    def after(self, t0):
+        with self.lock:
+            return [(t, q) for t, q in self.samples if t >= t0]
+
+
+def _script_env():
+    env = os.environ.copy()
+    env['PYTHONPATH'] = os.pathsep.join([ROOT] + [p for p in env.get('PYTHONPATH', '').split(
+        os.pathsep) if p])
+    env['PYTHONUNBUFFERED'] = '1'
+    return env
+
+
+@pytest.mark.parametrize('with_recorder', [True, False])
+def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rclpy_context,
+                                                    tmp_path, with_recorder):
+    """SIGINT mid-move: arm at rest within 0.2 s, short of the goal; one line; exit 130."""
+    from rclpy.node import Node
+    ns = f'px100_int_{os.getpid()}_{int(with_recorder)}'
+    node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
+    node = spin_node(Node('interrupt_watcher', context=rclpy_context))
+    watcher = _Watcher(node, ns)
+    bag = str(tmp_path / 'bag') if with_recorder else ''
+    proc = subprocess.Popen([sys.executable, os.path.join(HERE, 'interrupt_script.py'), ns,
+                             bag], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=_script_env())
+    try:
+        deadline = time.monotonic() + 60.0
+        line = ''
+        while 'MOVING' not in line and time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            if not line and proc.poll() is not None:
+                break
+        assert 'MOVING' in line, proc.stderr.read()[-3000:]
+        time.sleep(2.0)  # mid-move: the waist turns at about 0.33 rad/s
+        t_sig = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    time.sleep(1.0)
+    samples = watcher.after(t_sig - 0.5)
+    assert proc.returncode == 130, err[-3000:]
+    assert 'Traceback' not in err and 'Traceback' not in out, err[-3000:]
+    assert 'MOVE ENDED' not in out
+    lines = [x for x in err.splitlines() if 'Interrupted (Ctrl-C)' in x]
+    assert len(lines) == 1, err[-3000:]
+    assert 'canceled goal' in lines[0] and 'holding at waist=' in lines[0], lines[0]
+    if with_recorder:
+        assert f'bag: {bag}' in lines[0], lines[0]
+        assert os.path.isfile(os.path.join(bag, 'metadata.yaml'))
+    else:
+        assert 'no bag recorded' in lines[0], lines[0]
+    # at rest within 0.2 s of the signal (speed below 0.05 rad/s from then on; the settling
+    # afterwards stays within 0.01 rad) and short of the goal (1.5 rad)
+    final = samples[-1][1]
+    assert 0.3 < final < 1.3, samples[-5:]
+    fast = [t1 for (t0, q0), (t1, q1) in zip(samples, samples[1:])
+            if t1 - t0 > 1e-3 and abs(q1 - q0) / (t1 - t0) > 0.05]
+    t_rest = (max(fast) - t_sig) if fast else 0.0
+    late = [q for t, q in samples if t >= t_sig + 0.2]
+    assert t_rest < 0.2, f'arm still moving {t_rest:.3f} s after SIGINT'
+    assert max(late) - min(late) < 0.01, (min(late), max(late))
+    print(f'at rest {t_rest:.3f} s after SIGINT at waist {final:.3f} rad; {lines[0]}')

@@ -1,0 +1,172 @@
+"""Test-side helpers of the viewer tests: a watcher node over DDS and page/pixel helpers."""
+import os
+import threading
+import time
+import urllib.request
+
+from action_msgs.msg import GoalStatusArray
+from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import PoseStamped
+import numpy as np
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from visualization_msgs.msg import Marker, MarkerArray
+
+#: first port of the viewer tests (they use PORT_BASE .. PORT_BASE + 9)
+PORT_BASE = int(os.environ.get('PX100_VIEWER_TEST_PORT', '8130'))
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                     reliability=ReliabilityPolicy.RELIABLE)
+NAMES = {4: 'SUCCEEDED', 5: 'CANCELED', 6: 'ABORTED', 1: 'ACCEPTED', 2: 'EXECUTING'}
+#: the canvas part of the page (left of viser's control panel), for pixel checks
+CANVAS_CLIP = {'x': 0, 'y': 160, 'width': 640, 'height': 520}
+
+
+def wait_for(predicate, timeout: float, period: float = 0.05) -> bool:
+    """Poll predicate until true or timeout [s]; return its last value."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period)
+    return bool(predicate())
+
+
+def wait_http(url: str, timeout: float) -> bool:
+    """Wait until url answers HTTP 200."""
+    def ok():
+        try:
+            with urllib.request.urlopen(url, timeout=2.0) as r:
+                return r.status == 200
+        except OSError:
+            return False
+    return wait_for(ok, timeout, 0.25)
+
+
+class Watcher(Node):
+    """
+    Follow joint_states, ee_pose, ik/request and trajectory/status; send goals and a world.
+
+    The world is a real visualization_msgs/MarkerArray on ``world/markers`` (transient local,
+    the contract of docs/ros_interfaces.md) from this node, independent of sim_driver.
+    """
+
+    def __init__(self, ns: str = '/px100', **kwargs):
+        super().__init__('viewer_test_watcher', **kwargs)
+        self.ns = ns
+        self.lock = threading.Lock()
+        self.joints = {}
+        self.ee = None
+        self.ik_requests = []
+        self.status = {}
+        self.pub_goal = self.create_publisher(JointTrajectory, f'{ns}/trajectory/goal', 10)
+        self.pub_markers = self.create_publisher(MarkerArray, f'{ns}/world/markers', LATCHED)
+        self.pub_held = self.create_publisher(String, f'{ns}/world/held_object', LATCHED)
+        self.create_subscription(JointState, f'{ns}/joint_states', self._on_js, 10)
+        self.create_subscription(PoseStamped, f'{ns}/ee_pose', self._on_ee, 10)
+        self.create_subscription(PoseStamped, f'{ns}/ik/request', self._on_ik, 10)
+        self.create_subscription(GoalStatusArray, f'{ns}/trajectory/status', self._on_status,
+                                 LATCHED)
+
+    def _on_js(self, msg):
+        with self.lock:
+            self.joints = dict(zip(msg.name, msg.position))
+
+    def _on_ee(self, msg):
+        p = msg.pose.position
+        with self.lock:
+            self.ee = (p.x, p.y, p.z)
+
+    def _on_ik(self, msg):
+        p = msg.pose.position
+        with self.lock:
+            self.ik_requests.append((msg.header.frame_id, (p.x, p.y, p.z)))
+
+    def _on_status(self, msg):
+        with self.lock:
+            for st in msg.status_list:
+                key = (st.goal_info.stamp.sec, st.goal_info.stamp.nanosec)
+                self.status[key] = NAMES.get(st.status, str(st.status))
+
+    def position(self, name: str):
+        """Return the last measured position of the named joint (None before any state)."""
+        with self.lock:
+            return self.joints.get(name)
+
+    def send_goal(self, names, positions, moving_time: float = 1.5):
+        """Publish a one-point goal; return its id key (sec, nanosec)."""
+        wait_for(lambda: self.pub_goal.get_subscription_count() > 0, 10.0)
+        msg = JointTrajectory()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.joint_names = list(names)
+        pt = JointTrajectoryPoint(positions=[float(v) for v in positions])
+        pt.time_from_start = Duration(sec=int(moving_time),
+                                      nanosec=int((moving_time % 1) * 1e9))
+        msg.points = [pt]
+        self.pub_goal.publish(msg)
+        return (msg.header.stamp.sec, msg.header.stamp.nanosec)
+
+    def wait_goal(self, key, timeout: float = 20.0):
+        """Wait for a terminal status of a goal; return its name or None."""
+        done = ('SUCCEEDED', 'CANCELED', 'ABORTED')
+        wait_for(lambda: self.status.get(key) in done, timeout)
+        return self.status.get(key)
+
+    def publish_world(self, frame: str = 'px100/base_link', held: str = ''):
+        """Publish a table, a red cube, a green cylinder and a blue ball as world/markers."""
+        bodies = [('table', 'table', Marker.CUBE, (0.5, 0.6, 0.02), (0.2, 0.0, -0.011),
+                   (0.72, 0.6, 0.45, 1.0)),
+                  ('objects', 'red_cube', Marker.CUBE, (0.03, 0.03, 0.03), (0.2, 0.08, 0.015),
+                   (0.9, 0.1, 0.1, 1.0)),
+                  ('fixtures', 'bin', Marker.CYLINDER, (0.08, 0.08, 0.04), (0.15, -0.15, 0.02),
+                   (0.1, 0.7, 0.2, 1.0)),
+                  ('objects', 'ball', Marker.SPHERE, (0.03, 0.03, 0.03), (0.25, -0.05, 0.015),
+                   (0.95, 0.8, 0.1, 1.0))]
+        arr = MarkerArray()
+        for i, (ns, name, kind, scale, pos, rgba) in enumerate(bodies):
+            m = Marker()
+            m.header.frame_id = frame
+            m.header.stamp = self.get_clock().now().to_msg()
+            m.ns, m.id, m.type, m.action, m.text = ns, i, kind, Marker.ADD, name
+            m.scale.x, m.scale.y, m.scale.z = scale
+            m.pose.position.x, m.pose.position.y, m.pose.position.z = pos
+            m.pose.orientation.w = 1.0
+            m.color.r, m.color.g, m.color.b, m.color.a = rgba
+            arr.markers.append(m)
+        self.pub_markers.publish(arr)
+        self.pub_held.publish(String(data=held))
+
+
+def canvas_pixels(page) -> np.ndarray:
+    """Return the canvas part of a page screenshot as an (h, w, 3) uint8 array."""
+    import io
+
+    from PIL import Image
+    png = page.screenshot(clip=CANVAS_CLIP, timeout=90000)
+    return np.asarray(Image.open(io.BytesIO(png)).convert('RGB'))
+
+
+def dark_pixels(img: np.ndarray) -> int:
+    """Count near-black pixels (the arm's links; grid, ground and panel are light)."""
+    return int((img.max(axis=2) < 90).sum())
+
+
+def colour_pixels(img: np.ndarray, rgb, tol: int = 60) -> int:
+    """Count pixels within tol of a colour (per channel)."""
+    return int((np.abs(img.astype(int) - np.asarray(rgb)).max(axis=2) < tol).sum())
+
+
+def open_page(browser, url: str, timeout: float = 60.0):
+    """Open url in a new page, wait for viser's status panel; close the WebGL notice."""
+    page = browser.new_page(viewport={'width': 1000, 'height': 700})
+    page.goto(url)
+    page.wait_for_selector('text=state t =', timeout=timeout * 1000)
+    # the first joint_states reached the page: the stamp is no longer zero
+    page.wait_for_function(
+        '() => /state t = [1-9]/.test(document.body.innerText)', timeout=timeout * 1000)
+    page.wait_for_timeout(500)
+    page.evaluate("() => document.querySelectorAll('.mantine-Notification-closeButton')"
+                  '.forEach(b => b.click())')
+    return page
