@@ -30,13 +30,14 @@ from action_msgs.msg import GoalStatusArray
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS, parse_cli,
-                                      robot_name, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
+                                      LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
+                                      robot_topic, spin_node)
+from px100_control.ros.parameter_schema import VIEWER
 from px100_control.viewer.bag_view import serve_bag
 from px100_control.viewer.scene import ViewerScene
 from px100_control.viewer.state import GOAL_STATUS_NAMES, stamp_seconds, Throttle, \
     ViewerState
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -63,24 +64,14 @@ class ViewerNode(Node):
     """The viewer node (see the module doc); ``scene`` is built from the parameters."""
 
     def __init__(self, **kwargs):
-        super().__init__('viewer', **kwargs)
+        super().__init__('viewer', **robot_node_kwargs('viewer', kwargs))
         self.model = declare_robot_parameters(self)
-        d = ParameterDescriptor
-        host = self.declare_parameter('host', '127.0.0.1', d(
-            description='address the web server binds', read_only=True)).value
-        port = self.declare_parameter('port', 8080, d(
-            description='web server port', read_only=True)).value
-        read_only = self.declare_parameter('read_only', False, d(
-            description='show the robot only: no sliders, buttons or gizmo',
-            read_only=True)).value
-        remote = self.declare_parameter('allow_remote_control', False, d(
-            description='keep the controls when host is not loopback', read_only=True)).value
-        rate = float(self.declare_parameter('rate', 30.0, d(
-            description='page update rate [Hz], 1..60', read_only=True)).value)
-        trail = int(self.declare_parameter('trail_length', 500, d(
-            description='end-effector trail points kept', read_only=True)).value)
-        self.moving_time = float(self.declare_parameter('moving_time', 1.0, d(
-            description='shortest duration of a move sent by a control [s]')).value)
+        declare_schema(self, VIEWER)
+        value = self.get_parameter
+        host, port = value('host').value, value('port').value
+        read_only, remote = value('read_only').value, value('allow_remote_control').value
+        rate, trail = float(value('rate').value), int(value('trail_length').value)
+        self.moving_time = float(value('moving_time').value)
         if not 1.0 <= rate <= 60.0:
             raise ValueError(f'viewer rate must be within 1..60 Hz, not {rate}')
         if not 2 <= trail <= 100000:
@@ -355,10 +346,11 @@ def main(args=None) -> int:
     """Run the viewer (``ros2 run px100_control viewer``), or play a bag with ``--bag``."""
     description = ('Serve a live 3D page of the robot (http://127.0.0.1:8080) with joint '
                    'sliders, an end-effector gizmo and buttons, or play a bag with --bag.')
-    options, _ = parse_cli(description, args, _add_arguments)
+    options, _ = parse_cli(description, args, _add_arguments, (VIEWER,))
     if options.bag:
         return serve_bag(options.bag, host=options.host, port=options.port)
-    return spin_node(lambda opts: ViewerNode(), args, description, _add_arguments)
+    return spin_node(lambda opts: ViewerNode(), args, description, _add_arguments,
+                     schema=VIEWER)
 
 
 if __name__ == '__main__':
