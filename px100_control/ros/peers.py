@@ -74,3 +74,19 @@ def duplicates_message(peers: Dict[str, List[str]], ns: str) -> str:
         return ''
     return ('; '.join(parts) + ': they fight over the same joints (moves abort, the arm '
             'jitters); stop all but one (e.g. an in-process bringup beside a running bringup).')
+
+
+def new_duplicates(node, kind: str, ns: str, last: str) -> str:
+    """
+    Return the sentence naming duplicates of ``kind`` ('drivers' | 'trajectory_servers') under ns.
+
+    Logs it as an error when it is new (differs from ``last``); returns ``last`` unchanged while
+    a node of the graph is still being discovered (named on the next check).
+    """
+    peers = live_peers(node, ns)
+    if has_unknown(peers):
+        return last
+    message = duplicates_message({kind: peers[kind]}, ns)
+    if message and message != last:
+        node.get_logger().error(message)
+    return message

@@ -71,7 +71,7 @@ from px100_control.ros.common import (declare_robot_parameters, declare_schema, 
                                       LATCHED_QOS, robot_name, robot_node_kwargs, robot_topic,
                                       spin_node)
 from px100_control.ros.parameter_schema import SIM_DRIVER
-from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
+from px100_control.ros.peers import new_duplicates
 from px100_control.ros.world import WorldPublisher
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -717,12 +717,8 @@ class SimDriverNode(Node):
     def _check_peers(self) -> None:
         """Log (once per change) and report on /diagnostics a second driver in the namespace."""
         ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
-        peers = live_peers(self, ns)
-        if has_unknown(peers):
-            return  # a node being discovered: named on the next check
-        message = duplicates_message({'drivers': peers['drivers']}, ns)
+        message = new_duplicates(self, 'drivers', ns, self._duplicates)
         if message and message != self._duplicates:
-            self.get_logger().error(message)
             status = DiagnosticStatus(level=DiagnosticStatus.ERROR,
                                       name=f'{self.get_fully_qualified_name()}: peers',
                                       message=message,

@@ -34,7 +34,7 @@ from px100_control.ros.goal_status import (cancel_matches, DIAG_LEVEL, diagnosti
                                            shape_error, STATUS_CODES, STATUS_NAMES, StatusBook,
                                            uuid_bytes)
 from px100_control.ros.parameter_schema import TRAJECTORY_SERVER
-from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
+from px100_control.ros.peers import new_duplicates
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
@@ -245,13 +245,7 @@ class TrajectoryServerNode(Node):
     def _check_peers(self) -> None:
         """Log (once per change) a second trajectory server in the namespace, by name."""
         ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
-        peers = live_peers(self, ns)
-        if has_unknown(peers):
-            return  # a node being discovered: named on the next check
-        message = duplicates_message({'trajectory_servers': peers['trajectory_servers']}, ns)
-        if message and message != self._duplicates:
-            self.get_logger().error(message)
-        self._duplicates = message
+        self._duplicates = new_duplicates(self, 'trajectory_servers', ns, self._duplicates)
 
     def _on_watchdog(self) -> None:
         """Abort the running goal when joint_states stopped (the engine decides); log stalls."""
