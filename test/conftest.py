@@ -5,6 +5,7 @@ The domain comes from ROS_DOMAIN_ID if the runner set one (scripts/test.sh picks
 otherwise one derived from the process id, so parallel runs do not see each other.
 """
 import os
+import signal
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -16,6 +17,22 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 import pytest  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _default_signal_handlers():
+    """
+    Give every test the interpreter's SIGINT/SIGTERM handlers, and leave them so afterwards.
+
+    A node's main() run in this process (``run_nodes``, the recorder's) ends by ignoring SIGINT
+    while the interpreter finalises; left so, every later child process would inherit SIG_IGN
+    and a Ctrl-C test's script would not see its SIGINT.
+    """
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    yield
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 @pytest.fixture

@@ -78,7 +78,8 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
             proc.wait()
     time.sleep(1.0)
     samples = watcher.after(t_sig - 0.5)
-    assert proc.returncode == 130, err[-3000:]
+    assert proc.returncode == 130, \
+        f'exit {proc.returncode}; stdout: {out[-1500:]}\nstderr: {err[-3000:]}'
     assert 'Traceback' not in err and 'Traceback' not in out, err[-3000:]
     assert 'MOVE ENDED' not in out
     lines = [x for x in err.splitlines() if 'Interrupted (Ctrl-C)' in x]

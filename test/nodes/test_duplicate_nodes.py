@@ -24,15 +24,15 @@ def _wait(predicate, timeout):
 
 
 def test_two_bringups_in_one_namespace_are_named(node_process):
-    """Both sim_drivers and both trajectory_servers log the other by name."""
+    """Both sim_drivers and both trajectory_servers (same namespace, same names) are named."""
     ns = f'px100_dup_{os.getpid()}'
     a = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
-    b = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}', '-r', '__ns:=/second')
-    text = f"2 drivers publish joint_states under '/{ns}': /second/sim_driver, /sim_driver"
+    b = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
+    text = (f"2 drivers publish joint_states under '/{ns}': /{ns}/sim_driver (x2, same name)")
     assert _wait(lambda: text in a.output() or text in b.output(), 40.0), \
         a.output()[-2000:] + b.output()[-2000:]
     text = (f"2 trajectory servers take trajectory/goal under '/{ns}': "
-            '/second/trajectory_server, /trajectory_server')
+            f'/{ns}/trajectory_server (x2, same name)')
     assert _wait(lambda: text in a.output() or text in b.output(), 10.0), \
         a.output()[-2000:] + b.output()[-2000:]
 
