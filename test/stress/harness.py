@@ -221,8 +221,14 @@ def _finite(values) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
+#: how far a MEASURED position may lie beyond a URDF limit [rad or m]: MuJoCo's joint limits
+#: are stiff but soft constraints (solref 0.002 s), so a joint driven into its stop sits a few
+#: 1e-5 past it, as a real joint deflects into its hard stop; setpoints stay exact (1e-6)
+MEASURED_LIMIT_TOL = 1e-3
+
+
 def check_joint_message(msg: JointState, lim: Limits, *, setpoint: bool,
-                        pos_tol: float = 1e-6, vel_tol: float = 1e-6) -> List[str]:
+                        pos_tol: Optional[float] = None, vel_tol: float = 1e-6) -> List[str]:
     """
     Return what is wrong with a joint_states (setpoint=False) or setpoint message ([] if valid).
 
@@ -231,6 +237,8 @@ def check_joint_message(msg: JointState, lim: Limits, *, setpoint: bool,
     and leave arrays empty; its positions must be within limits and its velocities within the
     velocity limits.
     """
+    if pos_tol is None:
+        pos_tol = 1e-6 if setpoint else MEASURED_LIMIT_TOL
     problems = []
     names = list(msg.name)
     n = len(names)
