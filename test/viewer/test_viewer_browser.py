@@ -83,7 +83,7 @@ def test_page_connects_and_shows_the_arm_and_world(page, graph):
     watcher.publish_world()              # again, as a world publisher does at its rate
     for text in ('holding: nothing', 'world: 4 bodies'):
         page.wait_for_function('(t) => document.body.innerText.includes(t)', arg=text,
-                               timeout=45000)
+                               timeout=90000)
     page.wait_for_timeout(1500)          # let the software renderer draw a few frames
     img = canvas_pixels(page)
     assert dark_pixels(img) > 3000, f'no arm on the canvas ({dark_pixels(img)} dark pixels)'
