@@ -119,6 +119,72 @@ def node_process():
     assert not killed, f'processes ignored SIGINT and were killed: {killed}'
 
 
+def _stray_processes():
+    """Return [(pid, cmdline)] of processes in this run's DDS domain that are not pytest's own."""
+    domain = f"ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID')}".encode()
+    mine, pid = set(), os.getpid()
+    while pid > 1:                               # this process and its ancestors
+        mine.add(pid)
+        try:
+            with open(f'/proc/{pid}/stat', 'rb') as f:
+                pid = int(f.read().rsplit(b')', 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            break
+    stray = []
+    for entry in os.listdir('/proc'):
+        if not entry.isdigit() or int(entry) in mine:
+            continue
+        try:
+            with open(f'/proc/{entry}/environ', 'rb') as f:
+                if domain not in f.read().split(b'\0'):
+                    continue
+            with open(f'/proc/{entry}/cmdline', 'rb') as f:
+                cmd = f.read().replace(b'\0', b' ').decode(errors='replace').strip()
+        except OSError:
+            continue
+        # the session's browser and its Playwright driver stay
+        if cmd and 'chrom' not in cmd.split(' ', 1)[0] and 'playwright' not in cmd:
+            stray.append((int(entry), cmd))
+    return stray
+
+
+_STRAYS = []
+
+
+@pytest.fixture(scope='module', autouse=True)
+def _no_stray_processes(request):
+    """
+    After each test module, stop every process it left running in this run's DDS domain.
+
+    A node left running by one module would be a duplicate in the next module's graph (its goals
+    aborted, its latched topics mixed in); it is listed in the summary and in out/strays.log.
+    """
+    yield
+    import time
+    stray = _stray_processes()
+    if not stray:
+        return
+    for pid, _ in stray:
+        try:
+            os.kill(pid, signal.SIGINT)
+        except OSError:
+            pass
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and any(os.path.exists(f'/proc/{p}') for p, _ in stray):
+        time.sleep(0.1)
+    for pid, _ in stray:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+    out = os.path.join(ROOT, 'out')
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, 'strays.log'), 'a', encoding='utf-8') as f:
+        for pid, cmd in stray:
+            _STRAYS.append((request.node.nodeid, pid, cmd))
+            f.write(f'{request.node.nodeid}: {pid} {cmd}\n')
+
+
 _RERUN_FAILURES = []
 
 
@@ -137,7 +203,11 @@ def pytest_runtest_logreport(report):
 
 
 def pytest_terminal_summary(terminalreporter):
-    """Print the last lines of every failure that a rerun then passed (flakes stay visible)."""
+    """Print the processes a module left running, and every failure a rerun then passed."""
+    if _STRAYS:
+        terminalreporter.section('processes left running by a test module (stopped)')
+        for nodeid, pid, cmd in _STRAYS:
+            terminalreporter.write_line(f'{nodeid}: {pid} {cmd[:200]}')
     if not _RERUN_FAILURES:
         return
     terminalreporter.section('failures before a rerun (full text: out/reruns.log)')

@@ -26,7 +26,7 @@ set when the replay ended.
 import sys
 import threading
 import time
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 from px100_control.bag.reader import BagReader
 from px100_control.bag.replay import parse_remaps, ReplaySchedule, resolve_topic
@@ -46,8 +46,13 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 PROGRESS_PERIOD_S = 0.25
 #: topics (relative to a robot namespace) that move a live arm when replayed
 COMMAND_TOPICS = ('trajectory/goal', 'commands/joint_setpoints')
-#: how long [s] the graph is watched for live nodes before commands are replayed
-LIVE_CHECK_S = 1.0
+#: how long [s] the graph is watched for live nodes before commands are replayed (the wait ends
+#: as soon as one is seen; a loaded machine has taken more than 1 s to discover a bringup)
+LIVE_CHECK_S = 3.0
+#: after --wait-for-subscribers saw its subscribers, the time [s] given to their side of the match
+SUBSCRIBER_SETTLE_S = 0.5
+#: while commands are replayed, the graph is looked at again at most this often [s]
+LIVE_RECHECK_S = 0.25
 
 
 def publisher_qos(profiles: Sequence[dict]) -> QoSProfile:
@@ -113,6 +118,8 @@ class ReplayerNode(Node):
         self.send_commands = bool(send_commands)
         #: bag topics left out because a live node would act on them
         self.withheld: List[str] = []
+        self._commands: Dict[str, str] = {}
+        self._next_live_check = 0.0
         self.published = 0
         self.passes = 0
         self.done = threading.Event()
@@ -195,6 +202,9 @@ class ReplayerNode(Node):
         while time.monotonic() < deadline and not self._stop.is_set():
             if all(p.get_subscription_count() >= self.min_subscribers
                    for p in self.publishers_by_topic.values()):
+                # this side matched; the subscriber matches this publisher a moment later, and
+                # takes only what it sees after that (a latched topic keeps one message)
+                self._stop.wait(SUBSCRIBER_SETTLE_S)
                 return
             time.sleep(0.05)
         missing = [t for t, p in self.publishers_by_topic.items()
@@ -237,35 +247,60 @@ class ReplayerNode(Node):
                     out[topic] = published_as[:-len(suffix)].rstrip('/') or '/'
         return out
 
+    def _live_nodes(self, namespaces) -> Tuple[Dict[str, List[str]], bool]:
+        """Return ({namespace: live driver / server names}, whether a peer is still unknown)."""
+        live, unknown = {}, False
+        for ns in namespaces:
+            peers = live_peers(self, ns)
+            names = peers['drivers'] + peers['trajectory_servers']
+            unknown = unknown or has_unknown(peers)
+            if names:
+                live[ns] = sorted(set(names))
+        return live, unknown
+
     def _check_live_graph(self) -> None:
         """Warn about live drivers / trajectory servers; withhold commands from them."""
         commands = self._command_topics()
         if not commands or self.send_commands:
             return
+        self._commands = commands
         namespaces = sorted(set(commands.values()))
         deadline = time.monotonic() + LIVE_CHECK_S
-        live, unknown = {}, False
+        live, unknown = self._live_nodes(namespaces)
         while (not live or unknown) and time.monotonic() < deadline and \
                 not self._stop.is_set():
-            live, unknown = {}, False
-            for ns in namespaces:
-                peers = live_peers(self, ns)
-                names = peers['drivers'] + peers['trajectory_servers']
-                unknown = unknown or has_unknown(peers)
-                if names:
-                    live[ns] = sorted(set(names))
-            if not live or unknown:
-                time.sleep(0.05)
-        for topic, ns in commands.items():
-            if ns in live:
-                self.withheld.append(topic)
-        if not self.withheld:
+            time.sleep(0.05)
+            live, unknown = self._live_nodes(namespaces)
+        self._withhold(live)
+
+    def _withhold(self, live: Dict[str, List[str]]) -> None:
+        """Stop replaying the command topics of the namespaces with live nodes (with a warning)."""
+        new = [t for t, ns in self._commands.items() if ns in live and t not in self.withheld]
+        if not new:
             return
+        self.withheld.extend(new)
         self.topics = [t for t in self.topics if t not in self.withheld]
         self.get_logger().warning(
             'live nodes would act on the replayed commands ('
             + '; '.join(f"{ns}: {', '.join(n)}" for ns, n in live.items())
-            + f"): not replaying {', '.join(self.withheld)} (--send-commands replays them)")
+            + f"): not replaying {', '.join(new)} (--send-commands replays them)")
+
+    def _withheld_now(self, topic: str) -> bool:
+        """
+        Return True if topic is a command topic whose namespace has live nodes by now.
+
+        Discovery can outlast the check before the replay (a loaded machine): the graph is looked
+        at again, at most every LIVE_RECHECK_S, while commands are being replayed.
+        """
+        if topic in self.withheld:
+            return True
+        if topic not in self._commands:
+            return False
+        now = time.monotonic()
+        if now >= self._next_live_check:
+            self._next_live_check = now + LIVE_RECHECK_S
+            self._withhold(self._live_nodes(sorted(set(self._commands.values())))[0])
+        return topic in self.withheld
 
     def _wait_for_acks(self, timeout_s: float = 2.0) -> None:
         """Give reliable subscribers the time to acknowledge the last messages before exit."""
@@ -288,6 +323,8 @@ class ReplayerNode(Node):
             for raw in self.reader.iter_raw(self.topics, start_ns=schedule.first_ns):
                 if not self._sleep_until(t0 + schedule.due_s(raw.log_time_ns, pass_index)):
                     return
+                if self._withheld_now(raw.topic):
+                    continue
                 self.publishers_by_topic[raw.topic].publish(raw.data)
                 self.published += 1
                 if self.progress and time.monotonic() >= self._next_progress:

@@ -135,6 +135,32 @@ def test_dragging_a_joint_slider_moves_the_simulated_joint(page, graph):
         f'waist is {watcher.position("waist"):.3f} rad, slider {target:.3f}'
 
 
+def test_read_only_page_has_no_controls(browser, graph):
+    """
+    The read-only viewer shows the arm but no slider, button or gizmo.
+
+    Run before the gizmo drag: the IK target that drag sends is drawn on every viewer as a frame
+    whose blue z axis the gizmo check would take for the gizmo's arrow.
+    """
+    pg = open_page(browser, URL_RO)
+    try:
+        pg.wait_for_timeout(1500)
+        assert pg.locator('[role=slider]').count() == 0
+        assert pg.locator('button', has_text='Home').count() == 0
+        assert pg.locator('text=Torque off').count() == 0
+        img = canvas_pixels(pg)
+        assert dark_pixels(img) > 3000
+        assert _blue_arrow_tip(img) is None, 'a gizmo is drawn on the read-only page'
+    finally:
+        pg.close()
+    # and the page with controls does have them (the check above can fail)
+    pg = open_page(browser, URL)
+    try:
+        assert pg.locator('[role=slider]').count() == 4
+    finally:
+        pg.close()
+
+
 def _blue_arrow_tip(img: np.ndarray):
     """Return (x, y) in the canvas clip of the gizmo's z arrow tip (topmost blue pixel) or None."""
     b = img.astype(int)
@@ -174,27 +200,6 @@ def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
     assert target[2] > z0 + 0.01, f'IK target z {target[2]:.3f} not above {z0:.3f}'
     assert wait_for(lambda: watcher.ee[2] > z0 + 0.01, 15.0), \
         f'end effector z {watcher.ee[2]:.3f} did not rise from {z0:.3f}'
-
-
-def test_read_only_page_has_no_controls(browser, graph):
-    """The read-only viewer shows the arm but no slider, button or gizmo."""
-    pg = open_page(browser, URL_RO)
-    try:
-        pg.wait_for_timeout(1500)
-        assert pg.locator('[role=slider]').count() == 0
-        assert pg.locator('button', has_text='Home').count() == 0
-        assert pg.locator('text=Torque off').count() == 0
-        img = canvas_pixels(pg)
-        assert dark_pixels(img) > 3000
-        assert _blue_arrow_tip(img) is None, 'a gizmo is drawn on the read-only page'
-    finally:
-        pg.close()
-    # and the page with controls does have them (the check above can fail)
-    pg = open_page(browser, URL)
-    try:
-        assert pg.locator('[role=slider]').count() == 4
-    finally:
-        pg.close()
 
 
 def test_closed_tab_and_dead_viewer_never_stop_the_graph(browser, graph):
