@@ -4,7 +4,11 @@ Fixtures of the stress suite: the nodes as processes (one graph per module) and 
 Every test here carries the ``stress`` marker. Sizes: the reduced form by default (CI),
 ``PX100_STRESS=full`` for the campaign of the issue (10,000 inputs per topic and service).
 """
+import os
+
 import pytest
+
+from .harness import SESSION_PROCESS_ENV
 
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
 
@@ -43,7 +47,7 @@ def stress_processes():
     procs = []
 
     def _start(name, *args, env=None):
-        p = NodeProcess(name, args, env=env)
+        p = NodeProcess(name, args, env=dict(env or os.environ, **SESSION_PROCESS_ENV))
         procs.append(p)
         return p
 
