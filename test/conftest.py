@@ -137,8 +137,8 @@ def _stray_processes():
         try:
             with open(f'/proc/{entry}/environ', 'rb') as f:
                 environ = f.read().split(b'\0')
-            # a session fixture's processes (the stress graph) outlive a module by design
-            if domain not in environ or b'PX100_TEST_LIFETIME=session' in environ:
+            # a package fixture's processes (the stress graph) outlive a module by design
+            if domain not in environ or b'PX100_TEST_LIFETIME=package' in environ:
                 continue
             with open(f'/proc/{entry}/cmdline', 'rb') as f:
                 cmd = f.read().replace(b'\0', b' ').decode(errors='replace').strip()
