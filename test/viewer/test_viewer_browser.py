@@ -135,8 +135,8 @@ def test_read_only_page_has_no_controls(browser, graph):
     """
     The read-only viewer shows the arm but no slider, button or gizmo.
 
-    Run before the gizmo drag: the IK target that drag sends is drawn on every viewer as a frame
-    whose blue z axis the gizmo check would take for the gizmo's arrow.
+    Run before the gizmo drag: no IK target is drawn yet (a frame, on every viewer), whose blue z
+    axis the pixel check could take for the gizmo's arrow.
     """
     pg = open_page(browser, URL_RO)
     try:
