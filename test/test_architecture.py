@@ -21,14 +21,6 @@ PURE = ('wire', 'models', 'kinematics', 'control', 'sim', 'bag', 'viewer')
 #: layer rank of each top-level package of px100_control (a module may import rank <= its own)
 LAYERS = {'errors': 0, 'paths': 0, '__init__': 0, 'wire': 1, 'kinematics': 2, 'models': 3,
           'control': 4, 'sim': 4, 'bag': 4, 'viewer': 4, 'tools': 4, 'ros': 5, 'client': 6}
-#: cycles and function-level imports in the client package, left for after the client branch
-#: (#18) lands: arm <-> manipulator (a module __getattr__), core <-> gripper (pwm_to_effort),
-#: core -> inprocess -> ros nodes. The test below fails when one of them is gone, so the list
-#: only shrinks.
-KNOWN_CLIENT = {'px100_control.client.arm', 'px100_control.client.core',
-                'px100_control.client.gripper', 'px100_control.client.manipulator',
-                'px100_control.client', 'px100_control.client.inprocess',
-                'px100_control.client.mr_descriptions'}
 
 
 def _forbidden(module: str) -> bool:
@@ -202,18 +194,17 @@ def test_layer_order():
 
 
 def test_no_import_cycles():
-    """No cycle among the modules, apart from the client cycles listed in KNOWN_CLIENT."""
+    """No cycle among the modules (function-level imports count)."""
     cycles = _cycles(_graph(list(_all_files())))
-    assert not [c for c in cycles if not c <= KNOWN_CLIENT], cycles
-    assert cycles, 'the client cycles are gone: empty KNOWN_CLIENT'
+    assert not cycles, cycles
 
 
 def test_project_imports_at_the_top():
-    """A project import inside a function is marked '# optional: why' (client: KNOWN_CLIENT)."""
+    """A project import inside a function is marked '# optional: why'."""
     graph = _graph(list(_all_files()))
     bad = sorted({f'{m}: line {line} imports {t}' for m, edges in graph.items()
                   for t, line, inside, marked in edges
-                  if inside and not marked and m not in KNOWN_CLIENT})
+                  if inside and not marked})
     assert not bad, 'function-level project imports (move to the top or mark # optional):\n' \
         + '\n'.join(bad)
 

@@ -43,8 +43,11 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
-from px100_control.client import robot as _robot
+from px100_control.client.inprocess import InProcessBringup, ProcessBringup
+import px100_control.client.robot as _robot
 from px100_control.client.robot import InterbotixException
+from px100_control.control.gripper import effort_to_pwm as _effort_to_pwm
+from px100_control.control.gripper import pwm_to_effort as _pwm_to_effort
 from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
@@ -91,6 +94,16 @@ STALL_TORQUE = 1.4
 STALL_CURRENT_MA = 1300.0
 TORQUE_PER_AMP = STALL_TORQUE / (STALL_CURRENT_MA / 1000.0)
 PWM_LIMIT = 885.0
+
+
+def pwm_to_effort(pwm: float) -> float:
+    """Return the gripper torque [N*m] of a signed PWM command (clipped to +-PWM_LIMIT)."""
+    return _pwm_to_effort(max(-PWM_LIMIT, min(PWM_LIMIT, float(pwm))), STALL_TORQUE, PWM_LIMIT)
+
+
+def effort_to_pwm(effort: float) -> float:
+    """Return the signed PWM of a gripper torque [N*m] (inverse of pwm_to_effort)."""
+    return _effort_to_pwm(float(effort), STALL_TORQUE, PWM_LIMIT)
 
 
 def _active_recorder_dirs() -> List[str]:
@@ -277,7 +290,6 @@ class InterbotixRobotXSCore:
 
     # ------------------------------------------------------------------ setup
     def _start_bringup(self, mode, node_kwargs: dict) -> None:
-        from px100_control.client.inprocess import InProcessBringup, ProcessBringup
         if _robot.get_bringup(self.robot_name) is not None:
             return  # a second client of the same robot (e.g. a standalone gripper) shares it
         self._refuse_beside_running_nodes()
@@ -1080,7 +1092,7 @@ class InterbotixRobotXSCore:
                         raise InterbotixException(f"PWM {c:g} for '{j}' is beyond the PWM "
                                                   f'limit +-{PWM_LIMIT:g}: not sent')
                 out.append(('efforts', [
-                    (j, c / PWM_LIMIT * STALL_TORQUE if g is not None and j == g.joint
+                    (j, pwm_to_effort(c) if g is not None and j == g.joint
                      else c / PWM_LIMIT) for j, c in items]))
         for kind, items in out:
             self.publish_setpoints([j for j, _ in items], **{kind: [v for _, v in items]})
@@ -1257,7 +1269,6 @@ class InterbotixRobotXSCore:
         g = self.model.gripper
         mode = self.mode_of(names[0])
         if g is not None and names[0] == g.joint:
-            from px100_control.client.gripper import pwm_to_effort
             if mode in POSITION_MODES:
                 self.publish_setpoints([g.joint], positions=[float(command)])
             elif mode == 'pwm':

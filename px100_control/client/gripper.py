@@ -26,29 +26,19 @@ still closing on nothing logs a warning saying how long they still need.
 """
 from typing import Optional
 
-from px100_control.client.core import InterbotixRobotXSCore
-from px100_control.client.robot import InterbotixException
+from px100_control.client.core import effort_to_pwm, InterbotixRobotXSCore, PWM_LIMIT, \
+    pwm_to_effort, STALL_TORQUE
+from px100_control.client.robot import InterbotixException, robot_shutdown
+from px100_control.control.gripper import GripperLinkage
 
-#: XL430-W250 PWM limit (register 36 default) and stall torque [N*m] at 12 V
-PWM_LIMIT = 885.0
-STALL_TORQUE = 1.4
+__all__ = ['InterbotixGripperXS', 'InterbotixGripperXSInterface', 'pwm_to_effort',
+           'effort_to_pwm', 'PWM_LIMIT', 'STALL_TORQUE']
 #: a finger this close to a limit [m] counts as there (the simulated linkage stops at it)
 FINGER_TOLERANCE = 2e-4
 #: XL430-W250 no-load speed at 11.1 V (57 rpm) [rad/s] (ROBOTIS e-Manual)
 NO_LOAD_SPEED = 57.0 * 2.0 * 3.141592653589793 / 60.0
 #: below this horn speed [rad/s] closing fingers are taken as stopped (on an object)
 STOPPED_SPEED = 0.05
-
-
-def pwm_to_effort(pwm: float) -> float:
-    """Return the gripper torque [N*m] of a signed PWM command (clipped to +-PWM_LIMIT)."""
-    pwm = max(-PWM_LIMIT, min(PWM_LIMIT, float(pwm)))
-    return pwm / PWM_LIMIT * STALL_TORQUE
-
-
-def effort_to_pwm(effort: float) -> float:
-    """Return the signed PWM of a gripper torque [N*m] (inverse of pwm_to_effort)."""
-    return float(effort) / STALL_TORQUE * PWM_LIMIT
 
 
 class InterbotixGripperXSInterface:
@@ -90,7 +80,6 @@ class InterbotixGripperXSInterface:
                 f'({list(core.js_index_map)}): cannot drive the gripper.')
         self.left_finger_lower_limit = float(self.gripper_info.joint_lower_limits[0])
         self.left_finger_upper_limit = float(self.gripper_info.joint_upper_limits[0])
-        from px100_control.control.gripper import GripperLinkage
         linkage = GripperLinkage(spec.horn_radius, spec.arm_length, spec.finger_lower,
                                  spec.finger_upper)
         #: horn angle [rad] between fully open and fully closed
@@ -258,5 +247,4 @@ class InterbotixGripperXS:
 
     def shutdown(self) -> None:
         """Shut the API down (robot_shutdown)."""
-        from px100_control.client.robot import robot_shutdown
         robot_shutdown()

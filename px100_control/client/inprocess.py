@@ -10,8 +10,13 @@ rclpy context, and spin in their own executor thread (rclpy's EventsExecutor by 
 (http://127.0.0.1:8080; ``parameters={'port': N}`` to change).
 """
 import os
+import signal
+import subprocess
+import sys
+import tempfile
 from typing import List, Optional
 
+from px100_control.client.robot import SpinThread
 from px100_control.ros.common import make_executor
 from rclpy.parameter import Parameter
 
@@ -57,7 +62,7 @@ class InProcessBringup:
 
     def start(self, context=None) -> None:
         """Create the nodes and spin them in a background thread."""
-        from px100_control.ros import bringup
+        from px100_control.ros import bringup  # optional: the nodes (MuJoCo) load when used
         params = {'robot_model': self.robot_model, 'robot_name': self.robot_name}
         params.update(self.parameters)
         kwargs = dict(self.kwargs)
@@ -93,7 +98,6 @@ class InProcessBringup:
             for name, value in NODE_PARAMETERS.get(node.get_name(), {}).items():
                 if node.has_parameter(name):
                     node.set_parameters([Parameter(name, value=value)])
-        from px100_control.client.robot import SpinThread
         self.executor = make_executor(context=context)
         for n in self.nodes:
             self.executor.add_node(n)
@@ -127,15 +131,15 @@ def viewer_wanted(viewer: Optional[bool] = None) -> bool:
 def _node_class(name: str):
     """Return the node class of one of the bringup's executables."""
     if name == 'viewer':
-        from px100_control.ros.viewer_node import ViewerNode
+        from px100_control.ros.viewer_node import ViewerNode  # optional: viser when asked
         return ViewerNode
     if name == 'sim_driver':
-        from px100_control.ros.sim_driver_node import SimDriverNode
+        from px100_control.ros.sim_driver_node import SimDriverNode  # optional: MuJoCo
         return SimDriverNode
     if name == 'ik_service':
-        from px100_control.ros.ik_service_node import IkServiceNode
+        from px100_control.ros.ik_service_node import IkServiceNode  # optional: node modules
         return IkServiceNode
-    from px100_control.ros.trajectory_server_node import TrajectoryServerNode
+    from px100_control.ros.trajectory_server_node import TrajectoryServerNode  # optional: same
     return TrajectoryServerNode
 
 
@@ -168,12 +172,8 @@ class ProcessBringup:
 
     def start(self, context=None) -> None:
         """Start the three node processes (returns at once; the client waits for them)."""
-        import os
-        import subprocess
-        import sys
-        import tempfile
-        import px100_control
-        package_root = os.path.dirname(os.path.dirname(os.path.abspath(px100_control.__file__)))
+        # the folder holding the px100_control package (this file is px100_control/client/*.py)
+        package_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
         env = os.environ.copy()
         env['PYTHONPATH'] = os.pathsep.join(
             [package_root] + [p for p in env.get('PYTHONPATH', '').split(os.pathsep) if p])
@@ -210,8 +210,6 @@ class ProcessBringup:
 
     def stop(self, timeout: float = 10.0) -> None:
         """SIGINT every process and wait (SIGKILL after timeout)."""
-        import signal
-        import subprocess
         for proc in self.procs:
             if proc.poll() is None:
                 proc.send_signal(signal.SIGINT)

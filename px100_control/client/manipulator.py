@@ -32,7 +32,7 @@ poses and resets them.
 """
 from typing import Optional
 
-from px100_control.client.arm import InterbotixArmXSInterface
+from px100_control.client.arm_interface import InterbotixArmXSInterface
 from px100_control.client.core import InterbotixRobotXSCore
 from px100_control.client.gripper import InterbotixGripperXSInterface
 from px100_control.client.robot import robot_shutdown

@@ -4,15 +4,15 @@ Modern Robotics descriptions of the registered arms, like Interbotix's ``mr_desc
 ``mr_descriptions.px100.Slist`` (6, n) and ``.M`` (4, 4) [m] come from the robot model (URDF),
 so every robot in config/robots/ has one: ``getattr(mr_descriptions, robot_model)``.
 """
+from px100_control.client.arm_interface import MrDescription
 from px100_control.errors import UnknownRobotError
+from px100_control.models.registry import load_robot
 
 
 def __getattr__(name: str):
     """Return the description (an object with Slist and M) of robot model ``name``."""
     if name.startswith('__'):
         raise AttributeError(name)
-    from px100_control.client.arm import MrDescription
-    from px100_control.models.registry import load_robot
     try:
         model = load_robot(name)
     except UnknownRobotError as exc:
