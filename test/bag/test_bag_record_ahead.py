@@ -16,7 +16,7 @@ pytestmark = pytest.mark.ros
 def test_mismatched_publishers_are_matched_before_ready(rclpy_context, spin_node, tmp_path):
     """Best-effort joint_states and a String on ee_pose: matched, ready, recorded."""
     import rclpy
-    from px100_control.ros.recorder_node import Recorder
+    from px100_control.ros.recorder import Recorder
     from rclpy.node import Node
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
