@@ -161,7 +161,7 @@ def test_backlog_is_bounded_and_written_at_close(tmp_path, monkeypatch):
         tf.start_loading()
         tf.flush_backlog(timeout_s=60.0)
         assert tf.backlog == []
-        assert bag.topics['/tf'] == TF_TYPE
+        assert bag.topics['/tf'].type_name == TF_TYPE
     assert len(_tf_messages(bag_dir)) == 50
 
 
@@ -222,7 +222,7 @@ def test_a_published_description_is_used_unless_tf_is_off(tmp_path):
         tf, log = _engine(bag)
         tf.load_model()
         tf.use_description(tf.model_urdf)            # unprefixed: prefixed with the robot name
-        assert tf.tree.root == 'px100/base_link'
+        assert tf.tree.frame(tf.tree.root) == 'px100/base_link'
         tf.use_description('<robot name="x"><link name="a"/></robot>')
         assert log[-1][0] == 'warning' and 'not a usable URDF' in log[-1][1]
         tf.enabled = False
