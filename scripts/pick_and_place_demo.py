@@ -225,7 +225,7 @@ def plot(trace: Trace, targets: dict, verdicts: dict, out_dir: str) -> list:
 
 def start_bag(bot, out_dir: str):
     """Start recording every topic of the robot to an MCAP bag; return (stop(), bag_dir)."""
-    from px100_control.ros.recorder_node import record_in_process
+    from px100_control.ros.recorder import record_in_process
     bag_dir = os.path.join(out_dir, time.strftime('pick_and_place_%Y%m%d_%H%M%S'))
     return record_in_process(bot.get_node().context, bag_dir,
                              robot_name=bot.core.robot_name), bag_dir

@@ -5,16 +5,20 @@ Pure time arithmetic (no clock is read here): log times are integer ns since the
 are float seconds from the start of the replay. With ``rate`` r and ``start_offset_s`` o the
 first replayed log time is ``t0 = bag_start + o``; a message logged at t is due at
 ``(t - t0) / r`` in the first pass and one ``period_s`` later in each following pass (``loop``).
-Topic selection and ``from:=to`` remapping are parsed here too.
+Topic selection and ``from:=to`` remapping are parsed here too, and the replay's safety and
+progress texts are worded here: which replayed topics are commands to a live arm, what the
+warning about live nodes says, the progress line.
 """
 from dataclasses import dataclass
 import math
-from typing import Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 from px100_control.errors import BagError
 
 #: shortest wall time of one loop pass [s] (a one-message bag must not loop at 100 % CPU)
 MIN_LOOP_PERIOD_S = 0.01
+#: topics (relative to a robot namespace) that move a live arm when replayed
+COMMAND_TOPICS = ('trajectory/goal', 'commands/joint_setpoints')
 
 
 @dataclass(frozen=True)
@@ -141,3 +145,34 @@ def parse_remaps(items: Optional[Iterable[str]], namespace: str = '') -> Dict[st
             raise BagError(f"topic '{src}' is remapped twice ({remaps[src]} and {dst})")
         remaps[src] = dst
     return remaps
+
+
+def command_topics(topics: Iterable[str], remaps: Mapping[str, str]) -> Dict[str, str]:
+    """Return {bag topic: namespace it is published into} of the goal / setpoint topics."""
+    out = {}
+    for topic in topics:
+        published_as = remaps.get(topic, topic)
+        for suffix in COMMAND_TOPICS:
+            if published_as.endswith('/' + suffix) or published_as == suffix:
+                out[topic] = published_as[:-len(suffix)].rstrip('/') or '/'
+    return out
+
+
+def withheld_warning(live: Mapping[str, Sequence[str]], topics: Sequence[str]) -> str:
+    """Return the warning about commands not replayed ({namespace: live node names})."""
+    return ('live nodes would act on the replayed commands ('
+            + '; '.join(f"{ns}: {', '.join(n)}" for ns, n in live.items())
+            + f"): not replaying {', '.join(topics)} (--send-commands replays them)")
+
+
+def progress_text(schedule: ReplaySchedule, elapsed_s: float, published: int,
+                  passes: int = 0, final: bool = False) -> str:
+    """Return the progress line after ``elapsed_s`` [s] of replay (``final``: the last one)."""
+    if final:
+        return (f'[replay] done: {published} messages in {elapsed_s:.2f} s'
+                + (f' ({passes} passes)' if schedule.loop else ''))
+    index, bag_t = schedule.bag_time_ns(elapsed_s)
+    done_s = (bag_t - schedule.bag_start_ns) * 1e-9
+    return (f'[replay] {done_s:7.2f} / {schedule.bag_duration_s:.2f} s '
+            f'({100.0 * schedule.progress(elapsed_s):3.0f} %)  {published} messages'
+            + (f'  pass {index + 1}' if schedule.loop else ''))

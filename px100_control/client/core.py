@@ -196,7 +196,7 @@ class InterbotixRobotXSCore:
     :param joint_state_topic: ROS 1 / standalone-gripper name of topic_joint_states
     :param node_kwargs: extra keyword arguments for the in-process nodes
     :param recorder: wait before the first command until a recorder records everything: a
-        :class:`px100_control.ros.recorder_node.Recorder` (waits until it is ready), True (waits
+        :class:`px100_control.ros.recorder.Recorder` (waits until it is ready), True (waits
         up to connect_timeout for any recorder of this namespace to announce ``recorder/ready``;
         env ``PX100_RECORDER=wait``), None (default: waits only for a recorder already visible
         in the graph), False (never waits)

@@ -26,47 +26,26 @@ set when the replay ended.
 import sys
 import threading
 import time
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence
 
 from px100_control.bag.reader import BagReader
-from px100_control.bag.replay import parse_remaps, ReplaySchedule, resolve_topic
-from px100_control.errors import BagError, Px100Error
+from px100_control.bag.replay import (command_topics, parse_remaps, progress_text,
+                                      ReplaySchedule, resolve_topic)
+from px100_control.bag.tool_options import add_replay_arguments, extract_remaps
+from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
-from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
-                                      install_stop_signals, keep_spinning, make_executor,
-                                      parameter_descriptor, parse_cli, robot_node_kwargs,
-                                      shutdown_executor, shutting_down)
+from px100_control.ros.bag_qos import publisher_qos
+from px100_control.ros.bag_tool import run_bag_tool
+from px100_control.ros.common import parameter_descriptor, parse_cli, robot_node_kwargs
+from px100_control.ros.message_types import message_class
 from px100_control.ros.parameter_schema import COMMON, REPLAYER
-from px100_control.ros.peers import has_unknown, live_peers
-from px100_control.ros.recorder_node import message_class
-import rclpy
+from px100_control.ros.replay_guard import CommandGuard
+from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 PROGRESS_PERIOD_S = 0.25
-#: topics (relative to a robot namespace) that move a live arm when replayed
-COMMAND_TOPICS = ('trajectory/goal', 'commands/joint_setpoints')
-#: how long [s] the graph is watched for live nodes before commands are replayed (the wait ends
-#: as soon as one is seen; a loaded machine has taken more than 1 s to discover a bringup)
-LIVE_CHECK_S = 3.0
 #: after --wait-for-subscribers saw its subscribers, the time [s] given to their side of the match
 SUBSCRIBER_SETTLE_S = 0.5
-#: while commands are replayed, the graph is looked at again at most this often [s]
-LIVE_RECHECK_S = 0.25
-
-
-def publisher_qos(profiles: Sequence[dict]) -> QoSProfile:
-    """Return the QoS to replay a topic with, from its recorded offered QoS profiles."""
-    profiles = [p for p in profiles if isinstance(p, dict)]
-    reliable = all(p.get('reliability', 'reliable') != 'best_effort' for p in profiles)
-    latched = bool(profiles) and all(p.get('durability') == 'transient_local' for p in profiles)
-    depth = max([int(p.get('depth') or 0) for p in profiles] + [0])
-    if depth <= 0:
-        depth = 1 if latched else 10
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=depth,
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
 
 class ReplayerNode(Node):
@@ -107,7 +86,8 @@ class ReplayerNode(Node):
                 raise BagError(f'{what} must be a number >= 0, got {value!r}')
         self.reader = BagReader(bag)
         try:
-            self._setup(ns, rate, loop, topics, remap, start_offset)
+            self._make_publishers(ns, topics, remap)
+            self._make_schedule(rate, loop, start_offset)
         except BaseException:
             self.reader.close()
             raise
@@ -116,10 +96,7 @@ class ReplayerNode(Node):
         self.min_subscribers = max(1, int(min_subscribers))
         self.progress = bool(progress)
         self.send_commands = bool(send_commands)
-        #: bag topics left out because a live node would act on them
-        self.withheld: List[str] = []
-        self._commands: Dict[str, str] = {}
-        self._next_live_check = 0.0
+        self.guard = CommandGuard(self, {}, threading.Event())
         self.published = 0
         self.passes = 0
         self.done = threading.Event()
@@ -127,18 +104,17 @@ class ReplayerNode(Node):
         self._thread: Optional[threading.Thread] = None
         self.error = ''
 
-    def _setup(self, ns, rate, loop, topics, remap, start_offset) -> None:
+    def _make_publishers(self, ns: str, topics, remap) -> None:
         reader = self.reader
         explicit = None
         if topics:
             explicit = reader.check_topics([resolve_topic(t, ns) for t in topics])
-        remaps = parse_remaps(remap, ns)
-        unknown = [src for src in remaps if src not in reader.topics]
+        self.remaps = parse_remaps(remap, ns)
+        unknown = [src for src in self.remaps if src not in reader.topics]
         if unknown:
             raise BagError(f"{reader.path}: cannot remap {', '.join(unknown)}: not in the bag "
                            f"(it has: {', '.join(sorted(reader.topics))})")
         self.publishers_by_topic: Dict[str, object] = {}
-        self.remaps = remaps
         for topic in (explicit or sorted(reader.topics)):
             type_name = reader.topics[topic]
             cls = message_class(type_name) if type_name else None
@@ -149,12 +125,14 @@ class ReplayerNode(Node):
                     raise BagError(reason)
                 self.get_logger().warning(reason + ': not replayed')
                 continue
-            out = remaps.get(topic, topic)
             self.publishers_by_topic[topic] = self.create_publisher(
-                cls, out, publisher_qos(reader.qos.get(topic, [])))
+                cls, self.remaps.get(topic, topic), publisher_qos(reader.qos.get(topic, [])))
         self.topics: List[str] = sorted(self.publishers_by_topic)
         if not self.topics:
             raise BagError(f'{reader.path}: no topic to replay (none with an installed type)')
+
+    def _make_schedule(self, rate, loop, start_offset) -> None:
+        reader = self.reader
         summary = reader.summary()
         counted = [summary.topics[t] for t in self.topics if summary.topics[t].message_count]
         if not counted:
@@ -172,7 +150,12 @@ class ReplayerNode(Node):
             f'replaying {self.message_count} messages of {len(self.topics)} topics from '
             f'{reader.path} ({self.schedule.bag_duration_s:.2f} s) at rate {rate:g}'
             + (' in a loop' if loop else '')
-            + (''.join(f', {a} -> {b}' for a, b in remaps.items())))
+            + (''.join(f', {a} -> {b}' for a, b in self.remaps.items())))
+
+    @property
+    def withheld(self) -> List[str]:
+        """Return the bag topics left out because a live node would act on them."""
+        return self.guard.withheld
 
     # -- playback ---------------------------------------------------------------------------
     def start(self) -> 'ReplayerNode':
@@ -215,15 +198,7 @@ class ReplayerNode(Node):
 
     def _run(self) -> None:
         try:
-            if self.delay > 0 and not self._sleep_until(time.monotonic() + self.delay):
-                return
-            if self.wait_for_subscribers > 0:
-                self._wait_for_subscribers()
-            self._check_live_graph()
-            if not self.topics:
-                self.get_logger().warning('nothing left to replay')
-                return
-            self._play()
+            self._prepare_and_play()
         except BagError as exc:
             self.error = str(exc)
             self.get_logger().error(self.error)
@@ -237,74 +212,26 @@ class ReplayerNode(Node):
                 self._show_progress(final=True)
             self.done.set()
 
-    def _command_topics(self) -> Dict[str, str]:
-        """Return {bag topic: namespace} of the goal / setpoint topics being replayed."""
-        out = {}
-        for topic in self.topics:
-            published_as = self.remaps.get(topic, topic)
-            for suffix in COMMAND_TOPICS:
-                if published_as.endswith('/' + suffix) or published_as == suffix:
-                    out[topic] = published_as[:-len(suffix)].rstrip('/') or '/'
-        return out
-
-    def _live_nodes(self, namespaces) -> Tuple[Dict[str, List[str]], bool]:
-        """Return ({namespace: live driver / server names}, whether a peer is still unknown)."""
-        live, unknown = {}, False
-        for ns in namespaces:
-            peers = live_peers(self, ns)
-            names = peers['drivers'] + peers['trajectory_servers']
-            unknown = unknown or has_unknown(peers)
-            if names:
-                live[ns] = sorted(set(names))
-        return live, unknown
-
-    def _check_live_graph(self) -> None:
-        """Warn about live drivers / trajectory servers; withhold commands from them."""
-        commands = self._command_topics()
-        if not commands or self.send_commands:
+    def _prepare_and_play(self) -> None:
+        """Wait (delay, subscribers), withhold commands from live nodes, then play."""
+        if self.delay > 0 and not self._sleep_until(time.monotonic() + self.delay):
             return
-        self._commands = commands
-        namespaces = sorted(set(commands.values()))
-        deadline = time.monotonic() + LIVE_CHECK_S
-        live, unknown = self._live_nodes(namespaces)
-        while (not live or unknown) and time.monotonic() < deadline and \
-                not self._stop.is_set():
-            time.sleep(0.05)
-            live, unknown = self._live_nodes(namespaces)
-        self._withhold(live)
-
-    def _withhold(self, live: Dict[str, List[str]]) -> None:
-        """Stop replaying the command topics of the namespaces with live nodes (with a warning)."""
-        new = [t for t, ns in self._commands.items() if ns in live and t not in self.withheld]
-        if not new:
+        if self.wait_for_subscribers > 0:
+            self._wait_for_subscribers()
+        commands = {} if self.send_commands else command_topics(self.topics, self.remaps)
+        self.guard = CommandGuard(self, commands, self._stop)
+        self.guard.check()
+        self._drop_withheld()
+        if not self.topics:
+            self.get_logger().warning('nothing left to replay')
             return
-        self.withheld.extend(new)
-        self.topics = [t for t in self.topics if t not in self.withheld]
-        self.get_logger().warning(
-            'live nodes would act on the replayed commands ('
-            + '; '.join(f"{ns}: {', '.join(n)}" for ns, n in live.items())
-            + f"): not replaying {', '.join(new)} (--send-commands replays them)")
+        self._play()
 
-    def _withheld_now(self, topic: str) -> bool:
-        """
-        Return True if topic is a command topic whose namespace has live nodes by now.
-
-        Discovery can outlast the check before the replay (a loaded machine): the graph is looked
-        at again, at most every LIVE_RECHECK_S, while commands are being replayed.
-        """
-        if topic in self.withheld:
-            return True
-        if topic not in self._commands:
-            return False
-        now = time.monotonic()
-        if now >= self._next_live_check:
-            self._next_live_check = now + LIVE_RECHECK_S
-            self._withhold(self._live_nodes(sorted(set(self._commands.values())))[0])
-        return topic in self.withheld
+    def _drop_withheld(self) -> None:
+        self.topics = [t for t in self.topics if t not in self.guard.withheld]
 
     def _wait_for_acks(self, timeout_s: float = 2.0) -> None:
         """Give reliable subscribers the time to acknowledge the last messages before exit."""
-        from rclpy.duration import Duration
         if not self.context.ok():
             return
         for pub in self.publishers_by_topic.values():
@@ -315,15 +242,14 @@ class ReplayerNode(Node):
 
     def _play(self) -> None:
         schedule = self.schedule
-        t0 = time.monotonic()
-        self._t0 = t0
+        self._t0 = t0 = time.monotonic()
         self._next_progress = 0.0
         pass_index = 0
         while not self._stop.is_set():
             for raw in self.reader.iter_raw(self.topics, start_ns=schedule.first_ns):
                 if not self._sleep_until(t0 + schedule.due_s(raw.log_time_ns, pass_index)):
                     return
-                if self._withheld_now(raw.topic):
+                if self.guard.withheld_now(raw.topic):
                     continue
                 self.publishers_by_topic[raw.topic].publish(raw.data)
                 self.published += 1
@@ -333,21 +259,14 @@ class ReplayerNode(Node):
             if not schedule.loop:
                 return
             pass_index += 1
+            self._drop_withheld()
 
     def _show_progress(self, final: bool = False) -> None:
         t0 = getattr(self, '_t0', None)
         now = time.monotonic()
         elapsed = 0.0 if t0 is None else now - t0
         self._next_progress = now + PROGRESS_PERIOD_S
-        s = self.schedule
-        index, bag_t = s.bag_time_ns(elapsed)
-        done_s = (bag_t - s.bag_start_ns) * 1e-9
-        text = (f'[replay] {done_s:7.2f} / {s.bag_duration_s:.2f} s '
-                f'({100.0 * s.progress(elapsed):3.0f} %)  {self.published} messages'
-                + (f'  pass {index + 1}' if s.loop else ''))
-        if final:
-            text = (f'[replay] done: {self.published} messages in {elapsed:.2f} s'
-                    + (f' ({self.passes} passes)' if s.loop else ''))
+        text = progress_text(self.schedule, elapsed, self.published, self.passes, final)
         end = '\n' if final or not sys.stderr.isatty() else ''
         print(('\r' if sys.stderr.isatty() else '') + text, end=end, file=sys.stderr,
               flush=True)
@@ -359,102 +278,18 @@ class ReplayerNode(Node):
         return super().destroy_node()
 
 
-def _add_arguments(parser) -> None:
-    parser.add_argument('bag', help='bag directory (or .mcap file)')
-    parser.add_argument('-r', '--rate', type=float, default=1.0,
-                        help='playback speed factor (default 1.0)')
-    parser.add_argument('-l', '--loop', action='store_true', help='replay again and again')
-    parser.add_argument('--topics', nargs='+', default=None, metavar='TOPIC',
-                        help='topics to replay (default: all); relative names are under '
-                             '/<robot_name>/')
-    parser.add_argument('--remap', '-m', nargs='*', default=None, metavar='FROM:=TO',
-                        help='publish topic FROM on TO')
-    parser.add_argument('--start-offset', type=float, default=0.0,
-                        help='skip this many seconds of the bag at the start')
-    parser.add_argument('--delay', type=float, default=0.0,
-                        help='wait this many seconds before publishing')
-    parser.add_argument('--wait-for-subscribers', type=float, default=0.0, metavar='S',
-                        help='wait up to S seconds for a subscriber on every topic')
-    parser.add_argument('--min-subscribers', type=int, default=1, metavar='N',
-                        help='with --wait-for-subscribers: wait for N subscribers per topic')
-    parser.add_argument('--no-progress', action='store_true',
-                        help='no progress line on stderr')
-    parser.add_argument('--send-commands', action='store_true',
-                        help='also replay goals and setpoints into a namespace where a live '
-                             'driver or trajectory_server runs (default: skip them there)')
-
-
-def extract_remaps(argv: Sequence[str]):
-    """
-    Return (argv without them, [from:=to, ...]) of the ``--remap``/``-m`` options.
-
-    rcl would take a bare ``from:=to`` for a (deprecated) node remap rule, so the values are
-    taken out of the command line before it reaches rclpy.
-    """
-    out, remaps, i = [], [], 0
-    argv = list(argv)
-    while i < len(argv):
-        arg = argv[i]
-        if arg == '--ros-args':
-            out.extend(argv[i:])
-            break
-        if arg in ('--remap', '-m') or arg.startswith('--remap='):
-            if arg.startswith('--remap='):
-                remaps.append(arg.split('=', 1)[1])
-            i += 1
-            first = i
-            while i < len(argv) and not argv[i].startswith('-') and (
-                    ':=' in argv[i] or (i == first and not arg.startswith('--remap='))):
-                remaps.append(argv[i])  # a value without ':=' is refused with a clear error
-                i += 1
-            continue
-        out.append(arg)
-        i += 1
-    return out, remaps
-
-
 def main(args=None) -> int:
     """Replay a bag; exit 0 when it is done (or interrupted), 1 with a clear error otherwise."""
-    from rclpy.executors import ExternalShutdownException
     argv, remaps = extract_remaps(sys.argv if args is None else args)
     options, argv = parse_cli('Publish a recorded bag into the ROS graph with its timing.',
-                              argv, _add_arguments, (REPLAYER,))
-    options.remap = remaps
-    install_stop_signals()
-    rclpy.init(args=argv)
-    node = None
-    executor = None
-    status = 0
-    try:
-        executor = make_executor(kind=BAG_EXECUTOR)   # before the node: see common.run_nodes
-        node = ReplayerNode(options.bag, rate=options.rate, loop=options.loop,
-                            topics=options.topics, remap=options.remap,
-                            start_offset=options.start_offset, delay=options.delay,
-                            wait_for_subscribers=options.wait_for_subscribers,
-                            min_subscribers=options.min_subscribers,
-                            progress=not options.no_progress,
-                            send_commands=options.send_commands)
-        node.start()
-        executor.add_node(node)
-        while keep_spinning() and not node.done.is_set():
-            executor.spin_once(timeout_sec=0.1)
-        if node.error:
-            status = 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except Px100Error as exc:  # BagError and a bad robot_model
-        print(f'replay: error: {exc}', file=sys.stderr)
-        status = 1
-    except Exception:
-        if not shutting_down():
-            raise
-    finally:
-        shutdown_executor(executor)
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-        ignore_further_interrupts()
-    return status
+                              argv, add_replay_arguments, (REPLAYER,))
+    return run_bag_tool('replay', argv, lambda: ReplayerNode(
+        options.bag, rate=options.rate, loop=options.loop, topics=options.topics,
+        remap=remaps, start_offset=options.start_offset, delay=options.delay,
+        wait_for_subscribers=options.wait_for_subscribers,
+        min_subscribers=options.min_subscribers, progress=not options.no_progress,
+        send_commands=options.send_commands).start(),
+        done=lambda node: node.done.is_set(), status=lambda node: 1 if node.error else 0)
 
 
 if __name__ == '__main__':

@@ -11,7 +11,7 @@ import sys
 
 from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
 from px100_control.ros.conversions import stamp_id
-from px100_control.ros.recorder_node import Recorder
+from px100_control.ros.recorder import Recorder
 
 
 def run(ns: str, recorder=None) -> dict:

@@ -173,7 +173,7 @@ def test_sigkill_leaves_a_readable_bag_that_reindex_recovers(
 
 def test_in_process_recorder_api(rclpy_context, spin_node, tmp_path):
     """Recorder(...) as a context manager on a given context; max_messages stops it exactly."""
-    from px100_control.ros.recorder_node import Recorder
+    from px100_control.ros.recorder import Recorder
     fake = spin_node(FakeRobot(context=rclpy_context))
     bag_dir = str(tmp_path / 'inproc')
     rec = Recorder(bag_dir, topics=['joint_states'], context=rclpy_context, max_messages=50,

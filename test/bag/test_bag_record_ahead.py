@@ -16,7 +16,7 @@ pytestmark = pytest.mark.ros
 def test_mismatched_publishers_are_matched_before_ready(rclpy_context, spin_node, tmp_path):
     """Best-effort joint_states and a String on ee_pose: matched, ready, recorded."""
     import rclpy
-    from px100_control.ros.recorder_node import Recorder
+    from px100_control.ros.recorder import Recorder
     from rclpy.node import Node
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
@@ -32,7 +32,7 @@ def test_mismatched_publishers_are_matched_before_ready(rclpy_context, spin_node
     bag = str(tmp_path / 'bag')
     with Recorder(bag, robot_name='px100_ahead', context=rclpy_context, write_tf=False) as rec:
         assert rec.node.ready.is_set()
-        assert rec.node._unmatched() == []
+        assert rec.node.topics.unmatched() == []
         end = time.monotonic() + 10.0  # and the publishers' side of the match (best effort)
         while (js.get_subscription_count() < 1 or odd.get_subscription_count() < 1) and \
                 time.monotonic() < end:

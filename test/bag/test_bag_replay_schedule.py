@@ -1,8 +1,9 @@
-"""The pure replay schedule: due times at a rate, from an offset, in loops; remap parsing."""
+"""The pure replay schedule: due times at a rate, from an offset, in loops; remaps; texts."""
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from px100_control.bag.replay import (MIN_LOOP_PERIOD_S, parse_remaps, plan, ReplaySchedule,
-                                      resolve_topic)
+from px100_control.bag.replay import (command_topics, MIN_LOOP_PERIOD_S, parse_remaps, plan,
+                                      progress_text, ReplaySchedule, resolve_topic,
+                                      withheld_warning)
 from px100_control.errors import BagError
 import pytest
 
@@ -89,3 +90,37 @@ def test_topic_names_and_remaps():
             parse_remaps([bad])
     with pytest.raises(BagError, match='remapped twice'):
         parse_remaps(['/a:=/b', '/a:=/c'])
+
+
+def test_command_topics_follow_remaps():
+    """Goals and setpoints are commands in the namespace they are published into."""
+    topics = ['/px100/trajectory/goal', '/px100/joint_states', '/px100/commands/joint_setpoints',
+              '/trajectory/goal']
+    assert command_topics(topics, {}) == {'/px100/trajectory/goal': '/px100',
+                                          '/px100/commands/joint_setpoints': '/px100',
+                                          '/trajectory/goal': '/'}
+    assert command_topics(['/px100/trajectory/goal'],
+                          {'/px100/trajectory/goal': '/arm2/trajectory/goal'}) == {
+        '/px100/trajectory/goal': '/arm2'}
+    assert command_topics(['/px100/trajectory/goal'],
+                          {'/px100/trajectory/goal': '/px100/other'}) == {}
+
+
+def test_withheld_warning_names_the_live_nodes():
+    """The warning names each namespace's live nodes and the topics not replayed."""
+    text = withheld_warning({'/px100': ['/px100/sim_driver', '/px100/trajectory_server']},
+                            ['/px100/trajectory/goal'])
+    assert text == ('live nodes would act on the replayed commands (/px100: /px100/sim_driver, '
+                    '/px100/trajectory_server): not replaying /px100/trajectory/goal '
+                    '(--send-commands replays them)')
+
+
+def test_progress_text():
+    """The progress line: bag time, percent, messages, pass; the final line: the totals."""
+    s = ReplaySchedule(T0, T0 + 4 * 10**9, rate=2.0)
+    assert progress_text(s, 1.0, 7) == '[replay]    2.00 / 4.00 s ( 50 %)  7 messages'
+    assert progress_text(s, 2.5, 9, passes=1, final=True) == \
+        '[replay] done: 9 messages in 2.50 s'
+    loop = ReplaySchedule(T0, T0 + 4 * 10**9, rate=2.0, loop=True)
+    assert progress_text(loop, 3.0, 12).endswith('  pass 2')
+    assert progress_text(loop, 5.0, 20, passes=2, final=True).endswith('(2 passes)')

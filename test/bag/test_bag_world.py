@@ -146,7 +146,7 @@ def test_bag_object_paths_and_inspect_plot(tmp_path):
 def test_recorder_writes_world_topics_and_object_tf(rclpy_context, spin_node, tmp_path):
     """Recorded world/markers and held_object (latched QoS kept), /tf frames px100/objects/*."""
     from px100_control.ros.common import LATCHED_QOS
-    from px100_control.ros.recorder_node import Recorder
+    from px100_control.ros.recorder import Recorder
     from rclpy.node import Node
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import get_typestore, Stores

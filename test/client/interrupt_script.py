@@ -7,7 +7,7 @@ Usage: ``python interrupt_script.py NAMESPACE BAG_DIR`` (BAG_DIR '' = no Recorde
 import sys
 
 from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
-from px100_control.ros.recorder_node import Recorder
+from px100_control.ros.recorder import Recorder
 
 
 def run(namespace: str) -> None:

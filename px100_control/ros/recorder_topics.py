@@ -1,0 +1,182 @@
+"""
+The recorder's subscriptions: the contract's topics at once, the other topics as they appear.
+
+Raw subscriptions (the received bytes go to the bag as they are). A contract topic is subscribed
+*ahead*, before any publisher exists, with the QoS the contract gives it; when its publishers
+turn up with a type or QoS that subscription cannot match, it is re-subscribed to match them.
+Any other selected topic is subscribed once the graph shows a publisher, with a QoS every
+publisher matches, and added to the bag with the QoS profiles they offer.
+"""
+from typing import Callable, Dict, Iterable, List
+
+from px100_control.bag.recording import TF_TOPIC
+from px100_control.bag.writer import BagWriter
+from px100_control.errors import BagError
+from px100_control.ros.bag_qos import (ahead_qos, all_latched, assumed_offer, describe,
+                                       matches_all, qos_to_dict, subscription_qos)
+from px100_control.ros.message_types import message_class
+from px100_control.wire.private_api import take_serialized
+from rclpy.node import Node
+
+
+def take_next(sub):
+    """Return the next queued (bytes, info) of a raw subscription; None if none or destroyed."""
+    try:
+        return take_serialized(sub)
+    except Exception:  # destroyed meanwhile (stop in progress)
+        return None
+
+
+class RecorderTopics:
+    """
+    Subscribe a recorder node to what it records, and add the topics to its bag.
+
+    :param node: the recorder node (its graph queries, subscriptions and logger)
+    :param bag: the bag being written
+    :param selected: selected(topic) -> True if the topic is recorded
+    :param tf_written: tf_written() -> True while the recorder writes /tf itself
+    :param wanted: the topics asked for by name (not recording one of them is a warning)
+    :param callback_for: callback_for(topic) -> the raw subscription's callback
+    """
+
+    def __init__(self, node: Node, bag: BagWriter, selected: Callable[[str], bool],
+                 tf_written: Callable[[], bool], wanted: Iterable[str],
+                 callback_for: Callable[[str], Callable]):
+        self.node, self.bag = node, bag
+        self._selected, self._tf_written = selected, tf_written
+        self._wanted, self._callback_for = set(wanted), callback_for
+        self._log = node.get_logger()
+        #: topic -> its raw subscription
+        self.subs: Dict[str, object] = {}
+        #: contract topics subscribed ahead of their publishers: topic -> (type, latched)
+        self.ahead: Dict[str, tuple] = {}
+        #: subscribed-ahead topics already matched with a publisher (and logged as recorded)
+        self.matched: set = set()
+        #: the QoS of each subscribed-ahead topic's subscription
+        self.ahead_qos: Dict[str, object] = {}
+        #: topic -> why it is not recorded
+        self.skipped: Dict[str, str] = {}
+
+    def _subscribe(self, cls, topic: str, qos):
+        sub = self.node.create_subscription(cls, topic, self._callback_for(topic), qos, raw=True)
+        self.subs[topic] = sub
+        return sub
+
+    def subscribe_contract(self, contract: Iterable[tuple]) -> None:
+        """Subscribe to the selected (topic, type, latched) now, before their publishers exist."""
+        for topic, type_name, latched in contract:
+            if not self._selected(topic) or (self._tf_written() and topic == TF_TOPIC):
+                continue
+            cls = message_class(type_name)
+            if cls is None:
+                continue  # e.g. visualization_msgs not installed: the scan decides later
+            qos = ahead_qos(latched)
+            try:
+                self._subscribe(cls, topic, qos)
+            except Exception as exc:  # e.g. this participant has the topic with another type
+                self._log.debug(f'{topic}: not subscribed ahead ({exc})')
+                continue
+            self.ahead[topic] = (type_name, latched)
+            self.ahead_qos[topic] = qos
+            self._log.debug(f'{topic} [{type_name}]: subscribed ahead')
+
+    def _add_to_bag(self, topic: str, type_name: str, pubs, offered=None) -> None:
+        type_hash = getattr(pubs[0], 'topic_type_hash', '') if pubs else ''
+        self.bag.add_topic(topic, type_name,
+                           offered or [qos_to_dict(p.qos_profile) for p in pubs],
+                           type_description_hash=str(type_hash) if type_hash else None)
+
+    def add_channel(self, topic: str) -> None:
+        """Add a subscribed-ahead topic to the bag (at its first message: publishers' QoS)."""
+        type_name, latched = self.ahead[topic]
+        pubs = list(self.node.get_publishers_info_by_topic(topic))
+        self._add_to_bag(topic, type_name, pubs,
+                         [qos_to_dict(p.qos_profile) for p in pubs] or [assumed_offer(latched)])
+
+    def revise_ahead(self, topic: str, type_name: str, pubs) -> None:
+        """Re-subscribe a subscribed-ahead topic whose publishers its QoS or type cannot match."""
+        ahead_type, latched = self.ahead[topic]
+        type_name = getattr(pubs[0], 'topic_type', '') or type_name
+        offered = [p.qos_profile for p in pubs]
+        if type_name == ahead_type and matches_all(self.ahead_qos[topic], offered):
+            return
+        if topic in self.bag.topics and type_name != ahead_type:
+            self.skip(topic, f"published as '{type_name}', already recorded as '{ahead_type}'")
+            return
+        cls = message_class(type_name)
+        if cls is None:
+            return
+        self.node.destroy_subscription(self.subs.pop(topic))
+        self.ahead[topic] = (type_name, latched and all_latched(offered))
+        qos = subscription_qos(offered)
+        self.ahead_qos[topic] = qos
+        self._subscribe(cls, topic, qos)
+        self._log.info(f'{topic}: re-subscribed to match its publishers '
+                       f'[{type_name}, {describe(qos)}]')
+
+    def note_matches(self) -> None:
+        """Log 'recording <topic>' once a subscribed-ahead topic is matched with a publisher."""
+        for topic, (type_name, _) in list(self.ahead.items()):
+            sub = self.subs.get(topic)
+            if topic in self.matched or sub is None or sub.get_publisher_count() == 0:
+                continue
+            self.matched.add(topic)
+            self._log.info(f'recording {topic} [{type_name}] ({describe(self.ahead_qos[topic])})')
+
+    def unmatched(self) -> List[str]:
+        """Return the selected topics whose publishers are not all matched yet."""
+        out = []
+        for topic, _ in self.node.get_topic_names_and_types():
+            if topic in self.skipped or not self._selected(topic) or topic == TF_TOPIC:
+                continue
+            n = self.node.count_publishers(topic)
+            if n == 0:
+                continue
+            sub = self.subs.get(topic)
+            if sub is None or sub.get_publisher_count() < n:
+                out.append(topic)
+        return out
+
+    def scan(self) -> None:
+        """Subscribe to every selected topic that has a publisher and is not recorded yet."""
+        for topic, types in self.node.get_topic_names_and_types():
+            if topic in self.ahead and topic not in self.skipped:
+                pubs = self.node.get_publishers_info_by_topic(topic)
+                if pubs:
+                    self.revise_ahead(topic, types[0], pubs)
+            elif topic not in self.subs and topic not in self.skipped and self._selected(topic):
+                self._add_published(topic, types[0])
+
+    def _add_published(self, topic: str, type_name: str) -> None:
+        if self._tf_written() and topic == TF_TOPIC:
+            self.skip(topic, '/tf is written by the recorder itself from joint_states')
+            return
+        pubs = self.node.get_publishers_info_by_topic(topic)
+        if not pubs:
+            return  # a subscriber only: wait for a publisher (its type and QoS)
+        cls = message_class(type_name)
+        if cls is None:
+            self.skip(topic, f"type '{type_name}' is not installed")
+            return
+        try:
+            self._add_to_bag(topic, type_name, pubs)
+        except BagError as exc:
+            self.skip(topic, str(exc))
+            return
+        qos = subscription_qos([p.qos_profile for p in pubs])
+        self._subscribe(cls, topic, qos)
+        self._log.info(f'recording {topic} [{type_name}] ({describe(qos)})')
+
+    def skip(self, topic: str, reason: str) -> None:
+        """Leave a topic out, with a log line (a warning if it was asked for by name)."""
+        self.skipped[topic] = reason
+        level = self._log.warning if topic in self._wanted else self._log.info
+        level(f'not recording {topic}: {reason}')
+
+    def destroy_all(self) -> None:
+        """Destroy every subscription (also after SIGINT shut the context down)."""
+        for sub in list(self.subs.values()):
+            try:
+                self.node.destroy_subscription(sub)
+            except Exception:  # the context is already shut down (SIGINT): fine
+                pass

@@ -1,0 +1,82 @@
+"""
+Replay safety: a bag's goals and setpoints are not re-sent to a live arm.
+
+When a live driver or trajectory_server runs in a namespace the bag's ``trajectory/goal`` or
+``commands/joint_setpoints`` are replayed into (:mod:`px100_control.ros.peers`), those topics
+are withheld, with a warning naming the live nodes. The graph is watched up to LIVE_CHECK_S
+before the replay (the wait ends as soon as a live node is seen) and looked at again, at most
+every LIVE_RECHECK_S, while commands are replayed: discovery can outlast the first look on a
+loaded machine. Times are ``time.monotonic()`` seconds.
+"""
+import threading
+import time
+from typing import Dict, List, Tuple
+
+from px100_control.bag.replay import withheld_warning
+from px100_control.ros.peers import has_unknown, live_peers
+from rclpy.node import Node
+
+#: how long [s] the graph is watched for live nodes before commands are replayed (a loaded
+#: machine has taken more than 1 s to discover a bringup)
+LIVE_CHECK_S = 3.0
+#: while commands are replayed, the graph is looked at again at most this often [s]
+LIVE_RECHECK_S = 0.25
+
+
+class CommandGuard:
+    """
+    Withhold replayed command topics from namespaces with live nodes.
+
+    :param node: the replaying node (its graph and logger)
+    :param commands: {bag topic: namespace it is published into} of the command topics
+        (:func:`px100_control.bag.replay.command_topics`)
+    :param stop: set when the replay is stopped (ends the first wait early)
+    """
+
+    def __init__(self, node: Node, commands: Dict[str, str], stop: threading.Event):
+        self.node, self.commands, self._stop = node, dict(commands), stop
+        self._namespaces = sorted(set(self.commands.values()))
+        #: bag topics left out because a live node would act on them
+        self.withheld: List[str] = []
+        self._next_check = 0.0
+
+    def _live_nodes(self) -> Tuple[Dict[str, List[str]], bool]:
+        """Return ({namespace: live driver / server names}, whether a peer is still unknown)."""
+        live, unknown = {}, False
+        for ns in self._namespaces:
+            peers = live_peers(self.node, ns)
+            names = peers['drivers'] + peers['trajectory_servers']
+            unknown = unknown or has_unknown(peers)
+            if names:
+                live[ns] = sorted(set(names))
+        return live, unknown
+
+    def check(self) -> None:
+        """Before the replay: watch the graph (up to LIVE_CHECK_S) and withhold what is live."""
+        if not self.commands:
+            return
+        deadline = time.monotonic() + LIVE_CHECK_S
+        live, unknown = self._live_nodes()
+        while (not live or unknown) and time.monotonic() < deadline and \
+                not self._stop.is_set():
+            time.sleep(0.05)
+            live, unknown = self._live_nodes()
+        self._withhold(live)
+
+    def _withhold(self, live: Dict[str, List[str]]) -> None:
+        new = [t for t, ns in self.commands.items() if ns in live and t not in self.withheld]
+        if new:
+            self.withheld.extend(new)
+            self.node.get_logger().warning(withheld_warning(live, new))
+
+    def withheld_now(self, topic: str) -> bool:
+        """Return True if topic is a command topic whose namespace has live nodes by now."""
+        if topic in self.withheld:
+            return True
+        if topic not in self.commands:
+            return False
+        now = time.monotonic()
+        if now >= self._next_check:
+            self._next_check = now + LIVE_RECHECK_S
+            self._withhold(self._live_nodes()[0])
+        return topic in self.withheld
