@@ -120,7 +120,7 @@ def node_process():
 
 
 def _stray_processes():
-    """Return [(pid, cmdline)] of processes in this run's DDS domain that are not pytest's own."""
+    """Return [(pid, cmdline)] of this project's programs in this run's DDS domain (not pytest)."""
     domain = f"ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID')}".encode()
     mine, pid = set(), os.getpid()
     while pid > 1:                               # this process and its ancestors
@@ -136,14 +136,19 @@ def _stray_processes():
             continue
         try:
             with open(f'/proc/{entry}/environ', 'rb') as f:
-                if domain not in f.read().split(b'\0'):
-                    continue
+                environ = f.read().split(b'\0')
+            # a package fixture's processes (the stress graph) outlive a module by design
+            if domain not in environ or b'PX100_TEST_LIFETIME=package' in environ:
+                continue
             with open(f'/proc/{entry}/cmdline', 'rb') as f:
                 cmd = f.read().replace(b'\0', b' ').decode(errors='replace').strip()
         except OSError:
             continue
-        # the session's browser and its Playwright driver stay
-        if cmd and 'chrom' not in cmd.split(' ', 1)[0] and 'playwright' not in cmd:
+        # this project's Python programs only (not a shell's `| tail` beside pytest, nor the
+        # session's browser)
+        argv = cmd.split(' ')
+        if 'python' in os.path.basename(argv[0]) and \
+                any(a.startswith(ROOT) or 'px100' in a for a in argv[1:]):
             stray.append((int(entry), cmd))
     return stray
 

@@ -283,10 +283,10 @@ def plot_object_paths(ee_t: np.ndarray, ee_xyz: np.ndarray, world, path: str,
         top.plot(ee_xyz[:, 0], ee_xyz[:, 1], color='gray', lw=0.8, alpha=0.7,
                  label='end effector')
         side.plot(ee_t, ee_xyz[:, 2], color='gray', lw=0.8, alpha=0.7, label='end effector')
-    colors = plt.rcParams['axes.prop_cycle'].by_key()['color']
+    cycle = plt.rcParams['axes.prop_cycle'].by_key()['color']
     for k, name in enumerate(names):
         t, xyz = world.paths[name]
-        c = colors[k % len(colors)]
+        c = _object_colour(world.rgba.get(name), cycle[k % len(cycle)])
         label = name + (f' ({verdicts[name]})' if verdicts and name in verdicts else '')
         top.plot(xyz[:, 0], xyz[:, 1], color=c, lw=1.6, label=label)
         top.scatter(*xyz[0, :2], color=c, marker='o', s=30)
@@ -319,6 +319,16 @@ def plot_object_paths(ee_t: np.ndarray, ee_xyz: np.ndarray, world, path: str,
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+def _object_colour(rgba, fallback: str):
+    """Return an object's own colour (rgba 0..1; opaque, darkened if too light to see on white)."""
+    if rgba is None or len(rgba) < 3:
+        return fallback
+    rgb = np.clip(np.asarray(rgba[:3], dtype=float), 0.0, 1.0)
+    if rgb.min() > 0.8:                  # a white object on a white page
+        rgb = rgb * 0.6
+    return tuple(float(v) for v in rgb)
 
 
 def _equal_axes(ax, pts: np.ndarray, pad: float = 0.02) -> None:

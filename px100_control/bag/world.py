@@ -126,11 +126,13 @@ class ObjectPaths:
     Paths of the world's bodies in a bag or a live run.
 
     ``paths[name] = (t [s] (N,), xyz [m] (N, 3))`` in the base frame; ``kinds[name]`` the marker
-    ns; ``held = (t [s], names)`` the held_object samples ('' when nothing is held).
+    ns; ``rgba[name]`` its last colour (4 floats 0..1); ``held = (t [s], names)`` the
+    held_object samples ('' when nothing is held).
     """
 
     paths: Dict[str, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     kinds: Dict[str, str] = field(default_factory=dict)
+    rgba: Dict[str, Tuple[float, float, float, float]] = field(default_factory=dict)
     held: Tuple[np.ndarray, List[str]] = field(
         default_factory=lambda: (np.zeros(0), []))
 
@@ -147,6 +149,7 @@ class PathBuilder:
         self._t: Dict[str, list] = {}
         self._xyz: Dict[str, list] = {}
         self._kinds: Dict[str, str] = {}
+        self._rgba: Dict[str, tuple] = {}
         self._held_t: list = []
         self._held: List[str] = []
 
@@ -155,6 +158,7 @@ class PathBuilder:
         t = (int(t_ns) - self.t0_ns) * 1e-9
         for m in markers:
             self._kinds[m.name] = m.ns
+            self._rgba[m.name] = tuple(float(c) for c in m.rgba)
             self._t.setdefault(m.name, []).append(t)
             self._xyz.setdefault(m.name, []).append(m.position)
 
@@ -168,7 +172,8 @@ class PathBuilder:
         return ObjectPaths(
             paths={n: (np.array(self._t[n]), np.array(self._xyz[n], dtype=float).reshape(-1, 3))
                    for n in self._t},
-            kinds=dict(self._kinds), held=(np.array(self._held_t), list(self._held)))
+            kinds=dict(self._kinds), rgba=dict(self._rgba),
+            held=(np.array(self._held_t), list(self._held)))
 
 
 def markers_from_decoded(msg) -> List[WorldMarker]:

@@ -130,10 +130,16 @@ def test_bag_object_paths_and_inspect_plot(tmp_path):
     expected = np.array([_poses(tt)['red_cube'][0] for tt in np.arange(60) / 30])
     np.testing.assert_allclose(xyz, expected, atol=1e-12)
     assert world.held[1] == ['', 'red_cube', '']
+    assert world.rgba['red_cube'] == (1.0, 0.0, 0.0, 1.0)
     out = str(tmp_path / 'plots')
     assert inspect_main([bag_dir, '-o', out, '--no-gif']) == 0
     png = os.path.join(out, 'object_paths.png')
     assert os.path.getsize(png) > 10_000
+    # each object is drawn in its own colour: the red cube red, the blue ball blue
+    from PIL import Image
+    img = np.asarray(Image.open(png).convert('RGB')).astype(int)
+    for rgb in ((255, 0, 0), (0, 0, 255)):
+        assert (np.abs(img - rgb).max(axis=2) < 30).sum() > 200, f'no {rgb} path in the plot'
 
 
 @pytest.mark.ros

@@ -1,10 +1,14 @@
 """
-Fixtures of the stress suite: the nodes as processes (one graph per module) and the probe.
+Fixtures of the stress suite: the nodes as processes (one graph for the package) and the probe.
 
 Every test here carries the ``stress`` marker. Sizes: the reduced form by default (CI),
 ``PX100_STRESS=full`` for the campaign of the issue (10,000 inputs per topic and service).
 """
+import os
+
 import pytest
+
+from .harness import SHARED_PROCESS_ENV
 
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
 
@@ -31,19 +35,19 @@ def limits(model):
     return Limits.from_model(model)
 
 
-@pytest.fixture(scope='session')
+@pytest.fixture(scope='package')
 def stress_processes():
     """
-    Return a factory like ``node_process`` whose processes live for the whole stress session.
+    Return a factory like ``node_process`` whose processes live for the stress package.
 
     At teardown every process still running is stopped with SIGINT; one that had to be killed
-    fails the session.
+    fails the package.
     """
     from px100_control.tools.processes import NodeProcess
     procs = []
 
     def _start(name, *args, env=None):
-        p = NodeProcess(name, args, env=env)
+        p = NodeProcess(name, args, env=dict(env or os.environ, **SHARED_PROCESS_ENV))
         procs.append(p)
         return p
 
@@ -56,9 +60,9 @@ def stress_processes():
     assert not killed, f'processes ignored SIGINT and were killed: {killed}'
 
 
-@pytest.fixture(scope='session')
+@pytest.fixture(scope='package')
 def stress_probe():
-    """Yield one Probe (the test's own node, own context) for the whole stress session."""
+    """Yield one Probe (the test's own node, own context) for the stress package."""
     from px100_control.models.registry import load_robot
 
     from .harness import Limits, Probe
@@ -67,9 +71,14 @@ def stress_probe():
     p.close()
 
 
-@pytest.fixture(scope='session')
+@pytest.fixture(scope='package')
 def stress_graph(stress_processes, stress_probe):
-    """Start sim_driver, ik_service and trajectory_server once for every stress module."""
+    """
+    Start sim_driver, ik_service and trajectory_server once for the stress modules.
+
+    Package scope: the graph (namespace px100, default scene) is stopped after the last stress
+    module; a later module in the same domain would otherwise have a second driver.
+    """
     from .harness import Graph
     g = Graph(stress_processes)
     for n in NODES:
@@ -80,12 +89,12 @@ def stress_graph(stress_processes, stress_probe):
 
 @pytest.fixture(scope='module')
 def module_probe(stress_probe):
-    """Return the session's probe."""
+    """Return the package's probe."""
     return stress_probe
 
 
 @pytest.fixture(scope='module')
 def graph(stress_graph, stress_probe):
-    """Return the session's graph with every node running (dead ones restarted, recorded)."""
+    """Return the package's graph with every node running (dead ones restarted, recorded)."""
     stress_graph.revive(stress_probe, cause='dead at the start of a stress module')
     return stress_graph

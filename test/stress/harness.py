@@ -46,6 +46,10 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
 
+#: the environment mark of a process shared by the stress modules (package scope):
+#: test/conftest.py stops any other process a test module leaves running
+SHARED_PROCESS_ENV = {'PX100_TEST_LIFETIME': 'package'}
+
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                      reliability=ReliabilityPolicy.RELIABLE)
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -400,7 +404,7 @@ class Probe:
             [sys.executable, os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                           'rate_watcher.py'), '--dir', self._watcher_dir,
              '--robot-name', robot_name],
-            stdout=subprocess.DEVNULL, env=script_env())
+            stdout=subprocess.DEVNULL, env=dict(script_env(), **SHARED_PROCESS_ENV))
         for name in ('joint_states', 'ee_pose'):
             self.rates[name] = WatchedRates(os.path.join(self._watcher_dir, f'{name}.f64'))
         #: the watcher's own 100 Hz heartbeat: its gaps are stalls of the machine, not a node's
