@@ -88,6 +88,12 @@ def time_from_seconds(t: float) -> Time:
     return Time(sec=sec, nanosec=int(round((t - sec) * 1e9)) % 1_000_000_000)
 
 
+def time_from_ns(ns: int) -> Time:
+    """Return a builtin_interfaces/Time of ns [ns] (ns >= 0)."""
+    sec, nanosec = divmod(int(ns), 1_000_000_000)
+    return Time(sec=sec, nanosec=nanosec)
+
+
 def seconds(stamp) -> float:
     """Return a Time or Duration message as float seconds."""
     return float(stamp.sec) + float(stamp.nanosec) * 1e-9

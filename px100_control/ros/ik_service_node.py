@@ -37,60 +37,45 @@ queued is answered in the same executor wake-up. Replies are written as CDR byte
 checked at start against the middleware's deserializer; preallocated messages otherwise). The
 node spins single-threaded.
 """
-import math
+import sys
 import threading
 
-from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
-from px100_control.control.path_timing import joint_speed_bounds, path_times
+from px100_control.control.ik_requests import (MODES, parameter_error, path_targets, plan_path,
+                                               result_values, solved_message)
 from px100_control.errors import InvalidInputError
-from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
+from px100_control.kinematics.solve import solve_ik
 from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
                                       robot_name, robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
+from px100_control.ros.ik_messages import IkReplies, parse_pose_stamped
 from px100_control.ros.parameter_schema import IK_SERVICE
-from px100_control.wire.cdr import read_pose_stamped
 from px100_control.wire.private_api import take_serialized
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
-from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 NODE_NAME = 'ik_service'
-MODES = {'pitch': 'pitch', 'strict': 'full'}
 
 #: requests and replies: reliable and deep, so bursts from many clients lose nothing
 REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                          reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
 
-
-def parse_pose_stamped(raw: bytes, in_place: bool = True):
-    """
-    Return (stamp (builtin_interfaces/Time), frame_id, (x, y, z, qx, qy, qz, qw)) of a request.
-
-    ``raw`` is a serialized geometry_msgs/PoseStamped, read in place (``wire.cdr``) when
-    ``in_place`` (the reader agreed with rclpy at start); anything it cannot read goes through
-    rclpy's deserializer.
-    """
-    got = read_pose_stamped(raw) if in_place else None
-    if got is not None:
-        sec, nanosec, frame, values = got
-        return Time(sec=sec, nanosec=nanosec), frame, values
-    msg = deserialize_message(raw, PoseStamped)
-    p, o = msg.pose.position, msg.pose.orientation
-    return msg.header.stamp, msg.header.frame_id, (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+__all__ = ['IkServiceNode', 'main', 'parse_pose_stamped', 'REQUEST_QOS']
 
 
-def _fmt(x: float) -> str:
-    return f'{x:.3e}' if math.isfinite(x) else str(x)
+def _pose_values(pose) -> tuple:
+    """Return (x, y, z, qx, qy, qz, qw) of a geometry_msgs/Pose."""
+    p, o = pose.position, pose.orientation
+    return p.x, p.y, p.z, o.x, o.y, o.z, o.w
 
 
 class IkServiceNode(Node):
@@ -120,8 +105,7 @@ class IkServiceNode(Node):
         self.add_post_set_parameters_callback(lambda params: self._load_parameters())
         self._raw_replies = cdr.matches_rclpy()
         self._raw_requests = cdr.pose_stamped_matches_rclpy()
-        self._solution_writer = cdr.JointStateWriter(self._names)
-
+        self._replies = IkReplies(self._names, self._diag_name)
         self._pub_solution = self.create_publisher(JointState, robot_topic(self, 'ik/solution'),
                                                    REQUEST_QOS)
         self._pub_status = self.create_publisher(DiagnosticStatus,
@@ -135,12 +119,6 @@ class IkServiceNode(Node):
             raw=True)
         self.create_subscription(PoseArray, robot_topic(self, 'ik/path_request'),
                                  self._on_path_request, 100)
-        # preallocated replies: only the changing fields are written per request
-        self._solution = JointState()
-        self._solution.name = list(self._names)
-        self._status = DiagnosticStatus()
-        self._status.name = self._diag_name
-        self._key_values = [KeyValue() for _ in range(8)]
         self.get_logger().info(
             f'ik_service ready: {self.model.name} ({self.model.dof} joints, analytic '
             f'{self.model.analytic_ik or "none"}), orientation_mode {self._mode_param}')
@@ -148,27 +126,9 @@ class IkServiceNode(Node):
     # ------------------------------------------------------------------ parameters
     def _check_parameters(self, params) -> SetParametersResult:
         for p in params:
-            v = p.value
-            if p.name == 'orientation_mode' and v not in MODES:
-                return SetParametersResult(
-                    successful=False, reason=f"orientation_mode must be 'pitch' or 'strict', "
-                                             f'got {v!r}')
-            if p.name == 'method' and v not in METHODS:
-                return SetParametersResult(
-                    successful=False, reason=f'method must be one of {METHODS}, got {v!r}')
-            if p.name in ('tol_position', 'tol_orientation', 'orientation_tolerance') and not (
-                    isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                return SetParametersResult(successful=False,
-                                           reason=f'{p.name} must be > 0, got {v!r}')
-            if p.name == 'max_iterations' and not (isinstance(v, int) and v > 0):
-                return SetParametersResult(successful=False,
-                                           reason=f'max_iterations must be > 0, got {v!r}')
-            if p.name == 'nominal_pose':
-                vals = list(v or [])
-                if len(vals) != self.model.dof or not all(math.isfinite(x) for x in vals):
-                    return SetParametersResult(
-                        successful=False, reason=f'nominal_pose needs {self.model.dof} finite '
-                                                 f'values, got {vals}')
+            error = parameter_error(p.name, p.value, self.model.dof)
+            if error:
+                return SetParametersResult(successful=False, reason=error)
         return SetParametersResult(successful=True)
 
     def _load_parameters(self) -> None:
@@ -212,14 +172,8 @@ class IkServiceNode(Node):
 
     def _on_request(self, raw: bytes) -> None:
         """Answer this request and every other one already queued (one executor wake-up)."""
-        batch = [raw]
-        while len(batch) < self._max_batch:
-            queued = self._take_queued()
-            if queued is None:
-                break
-            batch.append(queued)
         seed = self._seed()
-        for req in batch:
+        for req in self._batch(raw):
             try:
                 stamp, frame, values = parse_pose_stamped(req, self._raw_requests)
             except Exception as exc:  # noqa: B902 - unreadable bytes: no id to answer to
@@ -232,14 +186,18 @@ class IkServiceNode(Node):
                 continue
             self._solve_one(stamp, T, mode, seed)
 
-    def _take_queued(self):
-        """Return the next request waiting in the subscription queue, or None."""
-        sub = self._request_sub
-        try:
-            taken = take_serialized(sub)
-        except Exception:  # noqa: B902 - draining is an optimisation; the executor takes it
-            return None
-        return None if taken is None else taken[0]
+    def _batch(self, raw: bytes) -> list:
+        """Return [raw] and the requests waiting in the subscription queue (up to a batch)."""
+        batch = [raw]
+        while len(batch) < self._max_batch:
+            try:
+                taken = take_serialized(self._request_sub)
+            except Exception:  # noqa: B902 - draining is an optimisation; the executor takes it
+                taken = None
+            if taken is None:
+                break
+            batch.append(taken[0])
+        return batch
 
     def _solve_one(self, stamp, T, mode: str, seed) -> None:
         """Solve one request with solve_ik and publish its reply."""
@@ -253,146 +211,59 @@ class IkServiceNode(Node):
             self.get_logger().error(f'ik request {stamp_id(stamp)}: internal error {exc!r}')
             self._reply(stamp, None, DiagnosticStatus.ERROR, f'internal error: {exc!r}', ())
             return
-        values = self._values(res, mode)
+        values = result_values(res, mode)
         if res.success:
-            self._reply(stamp, res.q, DiagnosticStatus.OK, self._solved_message(res, mode),
-                        values)
+            self._reply(stamp, res.q, DiagnosticStatus.OK,
+                        solved_message(res, mode, self._orientation_tol, self.model.dof), values)
         else:
             self._reply(stamp, None, DiagnosticStatus.ERROR, res.reason or 'no solution',
                         values)
 
-    def _solved_message(self, res, mode: str) -> str:
-        if mode != 'pitch':
-            return 'solved'
-        return self._pitch_message(float(res.details.get('unreachable_roll', 0.0)),
-                                   float(res.details.get('unreachable_yaw', 0.0)))
-
-    def _pitch_message(self, roll: float, yaw: float) -> str:
-        roll, yaw = abs(roll), abs(yaw)
-        if max(roll, yaw) <= self._orientation_tol:
-            return 'solved'
-        return (f'solved (warning: the target roll {roll:.4g} rad and yaw {yaw:.4g} rad that a '
-                f'{self.model.dof}-DOF arm cannot reach were dropped; position and pitch met)')
-
-    @staticmethod
-    def _values(res, mode: str):
-        vals = [('mode', mode), ('method', res.method), ('iterations', str(res.iterations)),
-                ('position_error', _fmt(res.position_error)),
-                ('orientation_error', _fmt(res.orientation_error)),
-                ('solutions', str(len(res.solutions)))]
-        if mode == 'pitch':
-            for key in ('unreachable_roll', 'unreachable_yaw'):
-                if key in res.details:
-                    vals.append((key, _fmt(float(res.details[key]))))
-        return vals
-
     def _reply(self, stamp, q, level: int, message: str, values) -> None:
         """Publish the solution and the status of one request (CDR bytes or reused messages)."""
+        pair = None
         if self._raw_replies:
-            hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
             try:
-                solution = self._solution_writer.write(
-                    stamp.sec, stamp.nanosec, () if q is None else [float(x) for x in q])
-                status = cdr.diagnostic_status(level, self._diag_name, message, hardware_id,
-                                               values)
+                pair = self._replies.raw(stamp, q, level, message, values)
             except Exception as exc:  # noqa: B902 - the message path below still answers
-                self.get_logger().error(f'ik request {hardware_id}: CDR reply failed ({exc!r})')
-            else:
-                self._pub_solution.publish(solution)
-                self._pub_status.publish(status)
-                if level != DiagnosticStatus.OK:
-                    self.get_logger().warning(f'ik request {hardware_id}: {message}',
-                                              throttle_duration_sec=1.0)
-                return
-        sol = self._solution
-        sol.header.stamp = stamp
-        sol.position = [] if q is None else [float(x) for x in q]
-        st = self._status
-        st.level = level
-        st.message = message
-        st.hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
-        pool = self._key_values
-        while len(pool) < len(values):
-            pool.append(KeyValue())
-        for kv, (key, value) in zip(pool, values):
-            kv.key = key
-            kv.value = value
-        st.values = pool[:len(values)]
-        self._pub_solution.publish(sol)
-        self._pub_status.publish(st)
+                self.get_logger().error(f'ik request {stamp_id(stamp)}: CDR reply failed '
+                                        f'({exc!r})')
+        if pair is None:
+            pair = self._replies.messages(stamp, q, level, message, values)
+        self._pub_solution.publish(pair[0])
+        self._pub_status.publish(pair[1])
         if level != DiagnosticStatus.OK:
-            self.get_logger().warning(f'ik request {st.hardware_id}: {message}',
+            self.get_logger().warning(f'ik request {stamp_id(stamp)}: {message}',
                                       throttle_duration_sec=1.0)
 
     # ------------------------------------------------------------------ paths
     def _on_path_request(self, msg: PoseArray) -> None:
-        stamp = msg.header.stamp
-        reply = JointTrajectory()
-        reply.header.stamp = stamp
-        reply.header.frame_id = msg.header.frame_id
-        reply.joint_names = list(self._names)
+        reply = JointTrajectory(header=msg.header, joint_names=list(self._names))
         try:
-            if not msg.poses:
-                raise InvalidInputError('the path has no poses')
-            targets = []
-            modes = set()
-            for i, pose in enumerate(msg.poses):
-                try:
-                    p, o = pose.position, pose.orientation
-                    T, mode = self._target(msg.header.frame_id,
-                                           (p.x, p.y, p.z, o.x, o.y, o.z, o.w))
-                except InvalidInputError as exc:
-                    raise InvalidInputError(f'pose {i}: {exc}') from None
-                targets.append(T)
-                modes.add(mode)
-            if len(modes) > 1:
-                raise InvalidInputError('the path mixes position-only poses (all-zero '
-                                        'quaternion) with oriented ones')
-            mode = modes.pop()
-            seed = self._seed()
-            results = solve_path(self.model, targets, seed, mode=mode,
-                                 q_nominal=self._nominal if mode == 'position' else None,
-                                 **self._kwargs)
+            targets, mode = path_targets([_pose_values(p) for p in msg.poses],
+                                         lambda pose: self._target(msg.header.frame_id, pose))
+            plan = plan_path(self.model, targets, mode, self._seed(), self._nominal,
+                             self._kwargs, self.get_parameter('max_path_joint_velocity').value,
+                             self.get_parameter('min_path_point_time').value)
         except InvalidInputError as exc:
             self._pub_path.publish(reply)
-            self._path_status(stamp, DiagnosticStatus.ERROR, f'invalid path request: {exc}',
-                              [('poses', str(len(msg.poses))), ('solved', '0')])
-            return
+            return self._path_status(msg.header.stamp, f'invalid path request: {exc}',
+                                     [('poses', str(len(msg.poses))), ('solved', '0')])
         except Exception as exc:  # noqa: B902 - a request must never stop the node
             self._pub_path.publish(reply)
-            self._path_status(stamp, DiagnosticStatus.ERROR, f'internal error: {exc!r}', [])
-            return
-        ok = [r for r in results if r.success]
-        if ok:
-            bounds = joint_speed_bounds(self.model.velocity_limits,
-                                        self.get_parameter('max_path_joint_velocity').value)
-            times = path_times([r.q for r in ok], seed, bounds,
-                               self.get_parameter('min_path_point_time').value)
-            for r, t in zip(ok, times):
-                reply.points.append(JointTrajectoryPoint(
-                    positions=[float(x) for x in r.q],
-                    time_from_start=Duration(seconds=float(t)).to_msg()))
+            return self._path_status(msg.header.stamp, f'internal error: {exc!r}', [])
+        reply.points = [JointTrajectoryPoint(positions=q, time_from_start=Duration(
+            seconds=t).to_msg()) for q, t in plan.points]
         self._pub_path.publish(reply)
-        values = [('poses', str(len(targets))), ('solved', str(len(ok))), ('mode', mode),
-                  ('method', results[-1].method),
-                  ('iterations', str(sum(r.iterations for r in results))),
-                  ('position_error', _fmt(max((r.position_error for r in ok), default=0.0))),
-                  ('orientation_error',
-                   _fmt(max((r.orientation_error for r in ok), default=0.0)))]
-        if len(ok) == len(targets):
-            self._path_status(stamp, DiagnosticStatus.OK, 'solved', values)
-        else:
-            bad = results[-1]
-            values.append(('failed_index', str(bad.details.get('index', len(ok)))))
-            self._path_status(stamp, DiagnosticStatus.ERROR, bad.reason or 'no solution',
-                              values)
+        self._path_status(msg.header.stamp, plan.message, plan.values, plan.ok)
 
-    def _path_status(self, stamp, level: int, message: str, values) -> None:
+    def _path_status(self, stamp, message: str, values, ok: bool = False) -> None:
+        level = DiagnosticStatus.OK if ok else DiagnosticStatus.ERROR
         st = DiagnosticStatus(level=level, name=self._diag_name, message=message,
                               hardware_id=stamp_id(stamp),
                               values=[KeyValue(key=k, value=v) for k, v in values])
         self._pub_status.publish(st)
-        if level != DiagnosticStatus.OK:
+        if not ok:
             self.get_logger().warning(f'ik path request {st.hardware_id}: {message}')
 
 
@@ -404,5 +275,4 @@ def main(args=None):
 
 
 if __name__ == '__main__':
-    import sys
     sys.exit(main())

@@ -33,8 +33,11 @@ from geometry_msgs.msg import PoseStamped
 from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
                                       LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
                                       robot_topic, spin_node)
+from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import VIEWER
 from px100_control.viewer.bag_view import serve_bag
+from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_read_only,
+                                           goal_move, GRIPPER_EFFORT)
 from px100_control.viewer.scene import ViewerScene
 from px100_control.viewer.state import GOAL_STATUS_NAMES, stamp_seconds, Throttle, \
     ViewerState
@@ -44,20 +47,6 @@ from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import MarkerArray
-
-LOOPBACK = ('127.0.0.1', 'localhost', '::1')
-#: gripper effort of the Open/Close buttons [N*m]: the client's default grasp pressure
-#: (PWM 250 of 885 at 1.4 N*m stall torque)
-GRIPPER_EFFORT = 250.0 / 885.0 * 1.4
-#: fraction of a joint's velocity limit a control's move may use
-SPEED_FRACTION = 0.5
-#: shortest period between two goals or IK requests from dragging [s]
-DRAG_PERIOD = 0.2
-
-
-def _time_msg(t: float) -> Time:
-    ns = int(round(t * 1e9))
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
 class ViewerNode(Node):
@@ -72,13 +61,8 @@ class ViewerNode(Node):
         read_only, remote = value('read_only').value, value('allow_remote_control').value
         rate, trail = float(value('rate').value), int(value('trail_length').value)
         self.moving_time = float(value('moving_time').value)
-        if not 1.0 <= rate <= 60.0:
-            raise ValueError(f'viewer rate must be within 1..60 Hz, not {rate}')
-        if not 2 <= trail <= 100000:
-            raise ValueError(f'viewer trail_length must be within 2..100000, not {trail}')
-        if not 1 <= int(port) <= 65535:
-            raise ValueError(f'viewer port must be within 1..65535, not {port}')
-        if str(host) not in LOOPBACK and not read_only and not remote:
+        check_settings(rate, trail, port)
+        if forced_read_only(host, read_only, remote):
             self.get_logger().warning(
                 f'host {host} is not loopback: read-only (set allow_remote_control to keep '
                 'the controls)')
@@ -248,22 +232,12 @@ class ViewerNode(Node):
     def _new_id(self) -> Time:
         t = max(time.time(), self._last_id + 1e-6)
         self._last_id = t
-        return _time_msg(t)
+        return time_from_ns(int(round(t * 1e9)))
 
     def send_goal(self, positions: dict) -> Time:
         """Publish a one-point trajectory goal to positions (joint -> rad/m); return its id."""
-        names = [n for n in self.model.joint_names if n in positions]
-        target = [float(positions[n]) for n in names]
-        t = self.moving_time
-        for n, q in zip(names, target):
-            k = self.model.joint_index(n)
-            lo, hi = float(self.model.lower[k]), float(self.model.upper[k])
-            if not lo <= q <= hi:
-                raise ValueError(f'{n} = {q:.3f} is outside its limits [{lo:.3f}, {hi:.3f}]')
-            now = self.state.joints.get(n)
-            vmax = float(self.model.velocity_limits[k]) * SPEED_FRACTION
-            if now is not None and vmax > 0:
-                t = max(t, abs(q - now) / vmax)
+        names, target, t = goal_move(self.model, positions, self.state.joints,
+                                     self.moving_time)
         msg = JointTrajectory()
         msg.header.stamp = self._new_id()
         msg.header.frame_id = self._base_frame

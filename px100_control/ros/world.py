@@ -11,19 +11,14 @@ physics step).
 """
 from typing import List, Optional
 
-from builtin_interfaces.msg import Time as TimeMsg
 from px100_control.bag.world import world_markers
 from px100_control.errors import InvalidInputError
 from px100_control.ros.common import LATCHED_QOS, robot_topic
+from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.world_msgs import marker_array
 from px100_control.sim.scene import load_scene
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
-
-
-def _time_msg(ns: int) -> TimeMsg:
-    sec, nanosec = divmod(int(ns), 1_000_000_000)
-    return TimeMsg(sec=sec, nanosec=nanosec)
 
 
 #: the ``scene`` value that picks the robot file's own scene
@@ -94,7 +89,7 @@ class WorldPublisher:
             return
         self.pub_markers.publish(marker_array(
             world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
-            _time_msg(stamp_ns)))
+            time_from_ns(stamp_ns)))
         period = int(round(1e9 / self.rate))
         self._next_ns = (stamp_ns + period if self._next_ns is None
                          or abs(stamp_ns - self._next_ns) > period

@@ -4,7 +4,10 @@ The MuJoCo world of the simulated arm: scenes as files and the MuJoCo model buil
 - :mod:`.scene`: ``load_scene(name_or_path, robot=None) -> Scene`` (config/scenes/<name>.yaml,
   default ``pick_place``; bad files raise InvalidInputError naming the field);
 - :mod:`.mjcf`: ``build_model(robot, scene)``: the MjModel (URDF + generated collision
-  geometry, finger pads, contact settings, scene bodies).
+  geometry, finger pads, contact settings, scene bodies);
+- :mod:`.stepper`: the sim_driver's time keeping (fixed physics steps advanced to a clock's
+  now, or on an own clock at a real-time factor; times as arguments);
+- :mod:`.driver_parameters`: the sim_driver's parameter checks and gain conversions.
 
 The simulator that runs it is :class:`px100_control.control.simulator.ArmSimulator`. Usage
 (robot base frame, SI units, quaternions x, y, z, w)::

@@ -252,21 +252,22 @@ def test_control_rate_this_machine_cannot_follow_is_refused(spin_node, rclpy_con
     (One step takes about 44 us here: 100 kHz would need 4.4 cores.) A far-behind clock is
     caught up by at most MAX_CHUNK of physics, the rest of the time dropped.
     """
-    from px100_control.ros import sim_driver_node as sd
+    from px100_control.sim.stepper import MAX_CHUNK
     driver, probe = start(spin_node, rclpy_context)
+    stepper = driver.stepper
     set_param = _parameter_setter(probe)
-    probe.wait(lambda: driver._step_cost is not None, what='a measured physics step')
+    probe.wait(lambda: stepper.step_cost is not None, what='a measured physics step')
     result = set_param('control_rate', 100000.0)
     assert not result.successful and 'could not keep up' in result.reason, result.reason
-    assert driver._dt_ns == 1_000_000
+    assert stepper.dt_ns == 1_000_000
     assert set_param('control_rate', 2000.0).successful
-    assert driver._dt_ns == 500_000
+    assert stepper.dt_ns == 500_000
     with driver._lock:
-        start_ns = driver._start_ns
-        steps = driver._capped_steps(10 * 10 ** 9)
-        assert steps == int(sd.MAX_CHUNK * 2000)
-        assert driver._start_ns - start_ns == 10 * 10 ** 9 - steps * 500_000
-        driver._start_ns = start_ns
+        start_ns = stepper.start_ns
+        steps = stepper.capped_steps(10 * 10 ** 9)
+        assert steps == int(MAX_CHUNK * 2000)
+        assert stepper.start_ns - start_ns == 10 * 10 ** 9 - steps * 500_000
+        stepper.start_ns = start_ns
     n = len(probe.js)
     time.sleep(1.0)
     assert len(probe.js) - n >= 50, 'joint_states stopped'
@@ -276,7 +277,7 @@ def test_slow_publish_rate_drops_no_simulated_time(spin_node, rclpy_context):
     """At publish_rate 1 Hz a sample (or a setpoint between two) integrates up to a second."""
     driver, probe = start(spin_node, rclpy_context, publish_rate=1.0)
     with driver._lock:
-        start_ns = driver._start_ns
+        start_ns = driver.stepper.start_ns
     for _ in range(2):   # a setpoint 0.8 s after a sample catches the physics up 0.8 s
         n = len(probe.js)
         probe.wait(lambda: len(probe.js) > n, what='the next sample')
@@ -284,8 +285,8 @@ def test_slow_publish_rate_drops_no_simulated_time(spin_node, rclpy_context):
         probe.send(['waist'], [0.0])
     time.sleep(0.3)
     with driver._lock:
-        assert driver._start_ns == start_ns, 'simulated time was dropped'
-        assert driver._sim_ns >= 2 * 10 ** 9
+        assert driver.stepper.start_ns == start_ns, 'simulated time was dropped'
+        assert driver.stepper.sim_ns >= 2 * 10 ** 9
 
 
 def test_fast_mode_publishes_sim_clock(spin_node, rclpy_context):
@@ -334,40 +335,6 @@ def test_follows_an_external_clock_with_use_sim_time(spin_node, rclpy_context):
     assert advanced == pytest.approx(1.0, abs=0.025)   # +- one 10 ms publish period each end
     js_stamp = stamp_s(probe.last_js())
     assert 101.9 < js_stamp <= sim_t + 1e-6
-
-
-@pytest.mark.parametrize('rtf, expect_fast', [(0.0, True), (float('inf'), True), (1.0, False),
-                                              (3.0, False)])
-def test_own_clock_is_not_tied_to_the_wall(rclpy_context, monkeypatch, rtf, expect_fast):
-    """
-    The own-clock tick: as fast as possible ignores wall time, a finite factor follows it.
-
-    Deterministic: the wall clock is replaced by one that advances 0.1 ms per reading.
-    """
-    import px100_control.ros.sim_driver_node as mod
-    params = [Parameter('real_time_factor', value=rtf), Parameter('publish_clock', value=True)]
-    driver = SimDriverNode(context=rclpy_context, parameter_overrides=params)
-    driver.stop_physics()             # drive the tick by hand
-    try:
-        fake = {'t': 1000.0}
-
-        def monotonic():
-            fake['t'] += 1e-4
-            return fake['t']
-
-        monkeypatch.setattr(mod.time, 'monotonic', monotonic)
-        driver._wall_anchor, driver._sim_anchor_ns = monotonic(), driver._sim_ns
-        wall0, sim0 = fake['t'], driver.sim_time_ns()
-        for _ in range(5):
-            driver._on_master_tick()
-        wall = fake['t'] - wall0
-        sim = (driver.sim_time_ns() - sim0) * 1e-9
-        if expect_fast:
-            assert sim > 3.0 * wall, (sim, wall)
-        else:
-            assert sim == pytest.approx(rtf * wall, abs=2e-3), (sim, wall)
-    finally:
-        driver.destroy_node()
 
 
 def test_register_unit_gains(spin_node, rclpy_context):

@@ -1,0 +1,66 @@
+"""
+What the viewer's controls ask for, as plain values (no ROS, no viser).
+
+The live page's sliders, buttons and gizmo end in a trajectory goal, an IK request or a gripper
+effort; here are the settings they are checked against and the goal a control's move makes.
+Joint positions [rad] (m for prismatic joints), times [s], efforts [N*m].
+"""
+from typing import Dict, List, Tuple
+
+#: hosts a page with controls may be served on without ``allow_remote_control``
+LOOPBACK = ('127.0.0.1', 'localhost', '::1')
+#: gripper effort of the Open/Close buttons [N*m]: the client's default grasp pressure
+#: (PWM 250 of 885 at 1.4 N*m stall torque)
+GRIPPER_EFFORT = 250.0 / 885.0 * 1.4
+#: fraction of a joint's velocity limit a control's move may use
+SPEED_FRACTION = 0.5
+#: shortest period between two goals or IK requests from dragging [s]
+DRAG_PERIOD = 0.2
+
+
+def check_settings(rate: float, trail: int, port: int) -> None:
+    """
+    Refuse viewer settings out of range.
+
+    :param rate: page updates [Hz], 1..60
+    :param trail: end-effector trail points, 2..100000
+    :param port: TCP port, 1..65535
+    :raises ValueError: naming the setting and its range
+    """
+    if not 1.0 <= rate <= 60.0:
+        raise ValueError(f'viewer rate must be within 1..60 Hz, not {rate}')
+    if not 2 <= trail <= 100000:
+        raise ValueError(f'viewer trail_length must be within 2..100000, not {trail}')
+    if not 1 <= int(port) <= 65535:
+        raise ValueError(f'viewer port must be within 1..65535, not {port}')
+
+
+def forced_read_only(host: str, read_only: bool, allow_remote_control: bool) -> bool:
+    """Return True when a page with controls would be served beyond loopback unasked."""
+    return str(host) not in LOOPBACK and not read_only and not allow_remote_control
+
+
+def goal_move(model, positions: Dict[str, float], joints_now: Dict[str, float],
+              moving_time: float) -> Tuple[List[str], List[float], float]:
+    """
+    Return (joint names, target positions, move time [s]) of a control's one-point goal.
+
+    The names are the model's arm joints found in ``positions``, in model order; the time is
+    ``moving_time`` or longer, so that no joint moves faster than SPEED_FRACTION of its
+    velocity limit from ``joints_now`` (joints not in it do not lengthen the move).
+
+    :raises ValueError: a target outside its joint's limits
+    """
+    names = [n for n in model.joint_names if n in positions]
+    target = [float(positions[n]) for n in names]
+    t = moving_time
+    for n, q in zip(names, target):
+        k = model.joint_index(n)
+        lo, hi = float(model.lower[k]), float(model.upper[k])
+        if not lo <= q <= hi:
+            raise ValueError(f'{n} = {q:.3f} is outside its limits [{lo:.3f}, {hi:.3f}]')
+        now = joints_now.get(n)
+        vmax = float(model.velocity_limits[k]) * SPEED_FRACTION
+        if now is not None and vmax > 0:
+            t = max(t, abs(q - now) / vmax)
+    return names, target, t
