@@ -257,9 +257,6 @@ REGISTERING = ('create_subscription', 'create_timer', 'create_wall_timer', 'crea
                'add_on_set_parameters_callback', 'add_pre_set_parameters_callback',
                'add_post_set_parameters_callback', 'add_done_callback', 'signal', 'Thread',
                'ActionServer')
-#: node modules still over the limits, left for after #19's recorder/replayer step; the test
-#: fails when one of them is within the limits, so the list only shrinks
-KNOWN_LONG_NODES = {'recorder_node.py', 'replayer_node.py'}
 
 
 def _node_files():
@@ -307,10 +304,14 @@ def _too_long(path: str) -> list:
 def test_nodes_are_thin(path):
     """A node module has at most 350 lines, each callback at most 20 (def line to last line)."""
     bad = _too_long(path)
-    if os.path.basename(path) in KNOWN_LONG_NODES:
-        assert bad, f'{os.path.basename(path)} is thin now: drop it from KNOWN_LONG_NODES'
-    else:
-        assert not bad, f'{os.path.basename(path)}: ' + ', '.join(bad)
+    assert not bad, f'{os.path.basename(path)}: ' + ', '.join(bad)
+
+
+def test_callbacks_are_short_everywhere():
+    """Outside the nodes too (viewer page events, client timers, threads): <= 20 lines each."""
+    bad = {os.path.relpath(f, ROOT): [b for b in _too_long(f) if b.startswith('callback')]
+           for f in _all_files()}
+    assert not {f: b for f, b in bad.items() if b}, bad
 
 
 def test_thin_node_check_finds_long_callbacks(tmp_path):
