@@ -116,6 +116,12 @@ def test_seed003(tmp_path):
     assert [tuple(c.ours) for c in iters] == [(1, 8), (1, 6)]
     for c in _get(rep, 'grasp joint angles') + _get(rep, 'place joint angles'):
         assert np.abs(c.ours - c.doc).max() < 0.02
+        assert 'printed precision' in c.why
+    found = rep.values['tables_analysis']
+    assert found['place_best_m'] > 5e-6          # Table 3 is not from the printed inputs
+    assert found['fit_residual_deg'] <= 0.005    # lengths within 0.05 mm reproduce both
+    assert np.abs(found['fit_offsets_m']).max() <= 0.05e-3
+    assert min(found['control']) > 2 * found['fit_residual_deg']
     assert not _get(rep, 'place solve from theta_init')[0].matches
 
 
