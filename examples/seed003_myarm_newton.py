@@ -68,9 +68,9 @@ def table_residual(q_grasp, q_place, tables=TABLES_DEG) -> np.ndarray:
 
 def lengths_fit(model, tables=TABLES_DEG, h=1e-5, iters=400):
     """
-    Return (offsets (4,) [m], residual (14,) [deg]): d1, d3, d5, d7 offsets that bring the two
-    solves closest to ``tables`` in the largest angle (Chebyshev).
+    Return (offsets (4,) [m], residual (14,) [deg]) of the d1, d3, d5, d7 fit to ``tables``.
 
+    The offsets bring the two solves closest to the tables in the largest angle (Chebyshev).
     The residual is linear in offsets this small (checked by the final run): a finite-
     difference Jacobian, Lawson's reweighted least squares for the min-max, then a real run.
     """
@@ -91,9 +91,10 @@ def lengths_fit(model, tables=TABLES_DEG, h=1e-5, iters=400):
 
 def nearest_in_rounding(model, q_table, target, half=np.radians(0.005), what='position'):
     """
-    Return the smallest error [m, or twist norm] of FK(q) to the target over the joint vectors
-    q within +-half of q_table (the table's rounding box): projected gradient on the
-    linearised error, re-linearised 4 times.
+    Return the smallest error [m, or twist norm] of FK(q) to the target near a printed table.
+
+    Over the joint vectors q within +-half of q_table (the table's rounding box): projected
+    gradient on the linearised error, re-linearised 4 times.
     """
     def error(q):
         if what == 'position':
