@@ -10,6 +10,8 @@ prints every number the document prints beside ours:
    six targets of eq. (4), and the cost function's pick;
 3. the iterative algorithm (eq. 3) on its two tests (V.8), with the convergence plots (Figs. 8-9);
 4. the workspace at fixed psi: the torus bounds against the inverse model on a grid;
+4b. the same model with the real px100 lengths against px100_control: FK, Jacobian, the closed
+   form (every front-branch solution) and solve_dls with the null-space task toward q_nom;
 5. both pick-and-place main() scripts (V.6, V.8) through the Interbotix-compatible client on the
    simulated px100 started in this process, with one end-effector plot per object in mm (Figs.
    5-7, 10-12). ``--no-robot`` leaves this part out.
@@ -170,6 +172,65 @@ def section_iterative(rep, m: SeedPx100):
         ax.grid(True, alpha=0.3)
         rep.values[f'iterative_{col + 1}'] = (q, info, info11)
     rep.save(fig, 'iterative_convergence.png')
+
+
+def section_product(rep):
+    rep.section("The document's model against px100_control's kinematics (real px100 lengths)")
+    from px100_control.kinematics.analytic import px100 as analytic
+    from px100_control.kinematics.iterative import solve_dls, Task
+    from px100_control.kinematics.poe import jacobian_geometric
+    from px100_control.models.registry import load_robot
+    px100, s = load_robot('px100'), SeedPx100.real()
+    print(f'  SeedPx100.real(): L1 = {s.L1}, Lm = {s.Lm}, L2 = {s.L2}, L3 = {s.L3}, L4 = {s.L4} m '
+          '(URDF, to ee_gripper_link); q_dh = q + q_nom')
+    Q = px100.random_configurations(200, rng=7)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])      # Rx(-pi/2)
+    d_pos = d_rot = d_jac = 0.0
+    for q in Q:
+        T_seed, T = s.matrice_t_h(s.q_actuator_to_q_dh(q)), px100.fk(q)
+        d_pos = max(d_pos, np.abs(T_seed[:3, 3] - T[:3, 3]).max())
+        d_rot = max(d_rot, np.abs(T_seed[:3, :3] - T[:3, :3] @ rx).max())
+        J = jacobian_geometric(px100.S_list, px100.M, q)[:3]
+        d_jac = max(d_jac, np.abs(s.jacobienne(s.q_actuator_to_q_dh(q)) - J).max())
+    rep.compare(f'matrice_t_h position vs px100.fk, largest difference over {len(Q)} '
+                'configurations [m]', d_pos, 0.0, 1e-12)
+    rep.compare('matrice_t_h rotation vs px100.fk rotation x Rx(-pi/2) (its z axis is the '
+                "URDF's -y)", d_rot, 0.0, 1e-12)
+    rep.compare('jacobienne vs the linear rows of jacobian_geometric (PoE) [m/rad]', d_jac,
+                0.0, 1e-12)
+    g = analytic.geometry(px100)
+    found = total = back = 0
+    for obj in OBJECTS:
+        for target in obj:
+            x, y, z, psi = np.asarray(target, float) * [1e-3, 1e-3, 1e-3, 1.0]
+            ours = analytic.solve_xyz_pitch(g, x, y, z, psi)
+            for sol in s.all_solutions([x, y, z, psi]):
+                if abs(math.remainder(sol[0] - math.atan2(y, x), 2 * math.pi)) > 1e-9:
+                    back += 1
+                    continue
+                qa = np.remainder(s.q_dh_to_q_actuator(sol) + math.pi, 2 * math.pi) - math.pi
+                total += 1
+                found += any(np.abs(np.array(o) - qa).max() < 1e-9 for o in ours)
+    rep.compare('eq. (4) targets (in m): front-branch solutions of the inverse model that the '
+                'closed form analytic.px100.solve_xyz_pitch also returns', found, total, 0)
+    rep.note(f'the {back} back-branch solutions (q1 + pi) keep psi = q2 + q3 + q4, which turns '
+             'the tool upside down; the closed form keeps the tool direction there instead')
+    worst = 0.0
+    print('  V.8 main() targets in m, from q_nom: seed iterative_algorithm (alpha = beta = 0.3) '
+          "vs solve_dls(secondary='nominal', q_nominal = home = q_nom)")
+    for obj in OBJECTS_ITERATIVE:
+        for target in obj:
+            x = np.asarray(target, float) * 1e-3
+            q, info = s.iterative_algorithm(s.q_nom, x, tolerance=1e-10, qnom=s.q_nom,
+                                            max_iterations=2000, return_info=True)
+            r = solve_dls(px100, Task(x, np.eye(3), 'position'), px100.home,
+                          secondary='nominal', check_limits=False)
+            diff = np.abs(np.asarray(r.q) - s.q_dh_to_q_actuator(info['history'][-1])).max()
+            worst = max(worst, diff)
+            print(f'    {np.round(x, 3).tolist()} m: seed {info["iterations"]} iterations, '
+                  f'solve_dls {r.iterations} ({"ok" if r.success else r.reason}), '
+                  f'|q_seed - q_dls| = {diff:.1e} rad')
+    rep.compare('largest |q_seed - q_dls| over the 6 targets [rad]', worst, 0.0, 1e-6)
 
 
 def section_workspace(rep, m: SeedPx100):
@@ -343,6 +404,7 @@ def main(argv=None):
     section_inverse(rep, m)
     section_iterative(rep, m)
     section_workspace(rep, m)
+    section_product(rep)
     if not args.no_robot:
         section_scripts(rep)
     assert seed.q_nom is not None

@@ -1,5 +1,6 @@
 """bot.arm.set_ee_waypoints: straight end-effector lines through waypoints, bounded joint steps."""
 import math
+import threading
 
 from client_support import EeSampler, wait_until
 import numpy as np
@@ -34,15 +35,57 @@ def _settled_error(bot, target, tol=1e-3) -> float:
     return err[0]
 
 
-def test_waypoints_are_followed_on_straight_lines(bot):
-    """The measured end effector stays near the straight segments and ends on the last pose."""
+class _GoalListener:
+    """Keep the JointTrajectory goals published on trajectory/goal (a node of its own)."""
+
+    def __init__(self, node, topic):
+        from trajectory_msgs.msg import JointTrajectory
+        self.goals, self.lock = [], threading.Lock()
+        node.create_subscription(JointTrajectory, topic, self._cb, 10)
+
+    def _cb(self, msg):
+        with self.lock:
+            self.goals.append(msg)
+
+    def count(self) -> int:
+        with self.lock:
+            return len(self.goals)
+
+    def last(self, joint_names) -> np.ndarray:
+        """Return the last goal's points (k, n) in ``joint_names`` order [rad]."""
+        with self.lock:
+            msg = self.goals[-1]
+        order = [list(msg.joint_names).index(j) for j in joint_names]
+        return np.array([[p.positions[i] for i in order] for p in msg.points])
+
+
+def test_waypoints_are_followed_on_straight_lines(bot, spin_node, rclpy_context):
+    """
+    The measured end effector stays near the straight segments and ends on the last pose.
+
+    The goal sent to the trajectory_server (heard on trajectory/goal by a node of the test)
+    has no joint step above max_joint_step, from the joint commands before the move on.
+    """
+    from rclpy.node import Node
+    listener = _GoalListener(spin_node(Node('ee_waypoints_goals', context=rclpy_context)),
+                             bot.core.topic('trajectory/goal'))
     _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, pitch=0.3, moving_time=1.2)
     assert ok
+    assert wait_until(lambda: listener.count() >= 1, 5.0), 'no goal heard on trajectory/goal'
     start = bot.arm.get_ee_pose_command()[:3, 3].copy()
+    q_start = np.array(bot.arm.get_joint_commands())
+    heard = listener.count()
     poses = [_pose(0.20, 0.08, 0.10, 0.6), _pose(0.16, -0.08, 0.08, 0.9),
              _pose(0.22, 0.0, 0.16, 0.2)]
+    max_step = 0.04
     with EeSampler(bot) as sampler:
-        assert bot.arm.set_ee_waypoints(poses, max_joint_step=0.04, wp_period=0.04) is True
+        assert bot.arm.set_ee_waypoints(poses, max_joint_step=max_step, wp_period=0.04) is True
+    assert wait_until(lambda: listener.count() > heard, 2.0), 'the waypoint goal was not heard'
+    Q = np.vstack([q_start, listener.last(bot.arm.joint_names)])
+    steps = np.abs(np.diff(Q, axis=0)).max(axis=1)
+    assert len(Q) > 3 * 3 and steps.max() <= max_step + 1e-9, steps.max()
+    assert steps.max() > 0.5 * max_step        # the bound is what limits the point count
+    np.testing.assert_allclose(Q[-1], bot.arm.get_joint_commands(), atol=1e-12)
     assert _settled_error(bot, poses[-1][:3, 3]) < 1e-3
     corners = np.vstack([start] + [T[:3, 3] for T in poses])
     P = sampler.array()

@@ -48,6 +48,11 @@ def test_seed000_offline(tmp_path):
         c = _get(rep, start)[0]
         assert not c.matches and c.why
     assert 'unreachable' in _get(rep, 'object 2 start psi')[0].why
+    # the document's model against the product's kinematics, in the example's own output
+    for start in ('matrice_t_h position vs px100.fk', 'matrice_t_h rotation', 'jacobienne vs',
+                  'eq. (4) targets (in m)', 'largest |q_seed - q_dls|'):
+        assert _get(rep, start)[0].matches, start
+    assert _get(rep, 'eq. (4) targets (in m)')[0].ours[0] >= 12
 
 
 @pytest.mark.ros
@@ -83,9 +88,15 @@ def test_seed001(tmp_path):
     assert rep.values['planned_max_step'] <= 0.05
     assert max(rep.values['doc_max_step']) > 0.05
     assert all(p >= d for p, d in zip(rep.values['planned_counts'], rep.values['doc_counts']))
-    pid = {r.gains: r for r in rep.values['pid']}
-    assert len(pid) == 6
-    assert all(c.matches for c in _get(rep, 'pattern:'))
+    for key in ('pid', 'pid_tuned'):
+        assert len(rep.values[key]) == 6
+        assert all(r.settled for r in rep.values[key]), key      # no figure of a moving joint
+    assert all(c.matches for c in _get(rep, 'physical pattern:') + _get(rep, 'tuned pattern:'))
+    assert _get(rep, 'no grid neighbour of the stored plant scores lower')[0].matches
+    best, seen = rep.values['pid_search']
+    assert best.score < 1.5 and len(seen) == 10
+    tuned_gaps = [c for c in rep.comparisons if c.label.startswith('tuned ') and not c.matches]
+    assert tuned_gaps and all('the search traded it off' in c.why for c in tuned_gaps)
 
 
 @pytest.mark.ros
@@ -116,6 +127,12 @@ def test_seed003(tmp_path):
     assert [tuple(c.ours) for c in iters] == [(1, 8), (1, 6)]
     for c in _get(rep, 'grasp joint angles') + _get(rep, 'place joint angles'):
         assert np.abs(c.ours - c.doc).max() < 0.02
+        assert 'printed precision' in c.why
+    found = rep.values['tables_analysis']
+    assert found['place_best_m'] > 5e-6          # Table 3 is not from the printed inputs
+    assert found['fit_residual_deg'] <= 0.005    # lengths within 0.05 mm reproduce both
+    assert np.abs(found['fit_offsets_m']).max() <= 0.05e-3
+    assert min(found['control']) > 2 * found['fit_residual_deg']
     assert not _get(rep, 'place solve from theta_init')[0].matches
 
 

@@ -1,4 +1,5 @@
-"""Seed 001's PID experiment (scripts/pid_experiment.py): the table has the seed's pattern."""
+"""Seed 001's PID experiment (scripts/pid_experiment.py): pattern, settling, plants, reasons."""
+import dataclasses
 import importlib.util
 import os
 
@@ -18,15 +19,75 @@ def experiment():
 
 @pytest.fixture(scope='module')
 def results(experiment):
-    return experiment.run_experiment(duration=3.0, integral_duration=15.0)
+    return experiment.run_experiment(duration=4.0, integral_duration=8.0)
 
 
-def test_table_has_the_seed_pattern(experiment, results):
+@pytest.fixture(scope='module')
+def tuned(experiment):
+    return experiment.run_experiment(duration=4.0, integral_duration=8.0,
+                                     plant=experiment.TUNED)
+
+
+def test_table_has_the_seed_pattern(experiment, results, tuned):
     """P leaves an error, I removes it, more P overshoots, D removes overshoot, settles faster."""
-    checks = experiment.pattern_checks(results)
-    assert len(checks) == 6
-    failed = [claim for claim, holds in checks if not holds]
-    assert not failed, experiment.format_table(results)
+    for runs in (results, tuned):
+        assert all(r.settled for r in runs), experiment.format_table(runs)
+        checks = experiment.pattern_checks(runs)
+        assert len(checks) == 6
+        failed = [claim for claim, holds in checks if not holds]
+        assert not failed, experiment.format_table(runs)
+
+
+def test_tuned_plant_is_closer_to_the_table(experiment, results, tuned):
+    """The tuned plant lands near the table; the demo's physical plant is far from it."""
+    assert experiment.score(tuned) < 1.5 < 20.0 < experiment.score(results)
+    cells = experiment.penalties(tuned)
+    assert sum(v > 0 for v in cells.values()) <= 8
+    assert max(cells.values()) < 0.5, cells
+    # only the experiment's simulator changed: a default simulator is the physical plant
+    from px100_control.control.simulator import ArmSimulator
+    model = experiment.load_robot('px100')
+    sim = ArmSimulator(model)
+    assert sim.friction == [0.1] * 4 and sim.damping == [0.1] * 4
+    physical = experiment.Plant('shoulder', 0.5, 0.1, 0.1, sim.servos[0].armature)
+    assert experiment.PHYSICAL.resolved(model) == physical
+
+
+def test_every_gap_has_a_reason_from_the_run(experiment, results, tuned):
+    """Each difference from the table is explained by the run's own numbers."""
+    for runs in (results, tuned):
+        for r in runs:
+            for metric, (doc, tol) in zip(experiment.METRICS,
+                                          experiment.SEED_NUMBERS[r.gains]):
+                value = experiment.metric_value(r, metric)
+                if abs(value - doc) > tol:
+                    assert experiment.explain(r, metric), (r.gains, metric, value)
+
+
+def test_a_reason_the_numbers_do_not_bear_out_is_refused(experiment, results):
+    """A torque balance that does not close, an overshoot past its bound: no explanation."""
+    p100 = results[0]
+    assert 'friction' in experiment.explain(p100, 'steady-state error')
+    wrong = dataclasses.replace(p100, balance=dict(p100.balance, friction=0.0))
+    assert experiment.explain(wrong, 'steady-state error') == ''
+    p1600 = results[3]
+    assert experiment.explain(p1600, 'overshoot')
+    assert experiment.explain(dataclasses.replace(p1600, overshoot=0.3), 'overshoot') == ''
+    fast = dataclasses.replace(p1600, settling_time=0.05)
+    assert experiment.explain(fast, 'settling time') == ''
+
+
+def test_a_run_still_moving_has_not_settled(experiment):
+    """A response cut while the joint still moves reports no error and no settling time."""
+    import numpy as np
+    t = np.linspace(0.001, 2.5, 2500)
+    y = -0.5 - 0.5 * (1.0 - np.exp(-t / 1.5))            # tau 1.5 s, cut at 2.5 s
+    sse, over, settle = experiment.step_metrics(t, y, -1.0, -0.5)
+    assert sse is None and settle is None and over == 0.0
+    t = np.linspace(0.001, 12.0, 12000)
+    y = -0.5 - 0.5 * (1.0 - np.exp(-t / 1.5))
+    sse, over, settle = experiment.step_metrics(t, y, -1.0, -0.5)
+    assert sse == pytest.approx(0.0, abs=1e-3) and 5.0 < settle < 7.0
 
 
 def test_metrics_of_a_known_response(experiment):
@@ -54,7 +115,7 @@ def test_metrics_of_a_known_response(experiment):
 def test_script_writes_the_png(experiment, results, tmp_path):
     """The plot of the six responses is written."""
     out = tmp_path / 'pid.png'
-    experiment.plot(results, str(out))
+    experiment.plot([('physical', results)], str(out))
     assert out.stat().st_size > 10000
     table = experiment.format_table(results)
     assert table.count('\n') == 7 and '| 640 | 0 | 4000 |' in table
