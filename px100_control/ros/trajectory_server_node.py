@@ -26,14 +26,15 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from px100_control.control.goal_executor import Goal, GoalExecutor, Outcome, Settings
 from px100_control.control.goal_executor import settings_error
 from px100_control.errors import InvalidInputError
+from px100_control.parameters import TRAJECTORY_SERVER
 from px100_control.ros import cdr
-from px100_control.ros.common import (declare_robot_parameters, declare_schema, robot_name,
-                                      robot_node_kwargs, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, robot_name, robot_node_kwargs,
+                                      robot_topic, spin_node)
 from px100_control.ros.conversions import stamp_id, stamp_key
 from px100_control.ros.goal_status import (cancel_matches, DIAG_LEVEL, diagnostic, goal_request,
                                            shape_error, STATUS_CODES, STATUS_NAMES, StatusBook,
                                            uuid_bytes)
-from px100_control.ros.parameter_schema import TRAJECTORY_SERVER
+from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter

@@ -30,11 +30,12 @@ from action_msgs.msg import GoalStatusArray
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
-                                      LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
-                                      robot_topic, spin_node)
+from px100_control.parameters import VIEWER
+from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
+                                      parse_cli, robot_name, robot_node_kwargs, robot_topic,
+                                      spin_node)
 from px100_control.ros.conversions import time_from_ns
-from px100_control.ros.parameter_schema import VIEWER
+from px100_control.ros.parameter_schema import declare_schema
 from px100_control.viewer.bag_view import serve_bag
 from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_read_only,
                                            goal_move, GRIPPER_EFFORT)
