@@ -2,7 +2,7 @@
 sim_driver: the simulated joint-state driver (joint dynamics + one PID loop per joint).
 
 A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
-(docs/ros_interfaces.md, sim_driver section). Topics under ``/<robot_name>``:
+(docs/ros_interfaces.md, sim_driver section). Topics in the node's namespace (the robot's):
 
 - pub ``joint_states`` (sensor_msgs/JointState, ``publish_rate``): arm joints, gripper,
   left_finger, right_finger; position, velocity, effort (N*m; fingers m, m/s, N);
@@ -270,7 +270,7 @@ class SimDriverNode(Node):
 
     def _check_peers(self) -> None:
         """Log (once per change) and report on /diagnostics a second driver in the namespace."""
-        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
+        ns = self.get_namespace()    # where its topics are (robot_name may differ)
         message = new_duplicates(self, 'drivers', ns, self._duplicates)
         if message and message != self._duplicates:
             self._publish_error('peers', message)

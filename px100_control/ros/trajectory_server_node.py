@@ -1,8 +1,8 @@
 """
 trajectory_server: action-style joint trajectory execution over standard messages.
 
-Topics and services are those of docs/ros_interfaces.md, relative to ``/<robot_name>``. This
-node is wiring: it declares the parameters, turns messages into the goal executor's inputs
+Topics and services are those of docs/ros_interfaces.md, in the node's namespace. This node is
+wiring: it declares the parameters, turns messages into the goal executor's inputs
 (:mod:`px100_control.control.goal_executor`, where the goal semantics live: planning, sampling,
 hold/resume, tracking and settle verdicts, the watchdog) and publishes what it decides.
 
@@ -245,8 +245,8 @@ class TrajectoryServerNode(Node):
 
     def _check_peers(self) -> None:
         """Log (once per change) a second trajectory server in the namespace, by name."""
-        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
-        self._duplicates = new_duplicates(self, 'trajectory_servers', ns, self._duplicates)
+        self._duplicates = new_duplicates(self, 'trajectory_servers', self.get_namespace(),
+                                          self._duplicates)
 
     def _on_watchdog(self) -> None:
         """Abort the running goal when joint_states stopped (the engine decides); log stalls."""
