@@ -43,8 +43,8 @@ def test_peers_are_looked_for_in_the_node_namespace(rclpy_context):
     from px100_control.ros.trajectory_server_node import TrajectoryServerNode
     from rclpy.parameter import Parameter
     ns = f'/dup_ns_{os.getpid()}'
-    kwargs = dict(context=rclpy_context, namespace=ns,
-                  parameter_overrides=[Parameter('robot_name', value='elsewhere')])
+    kwargs = {'context': rclpy_context, 'namespace': ns,
+              'parameter_overrides': [Parameter('robot_name', value='elsewhere')]}
     nodes = []
     try:
         for cls in (SimDriverNode, SimDriverNode, TrajectoryServerNode, TrajectoryServerNode):
