@@ -51,7 +51,7 @@ class ParamSpec:
     def constraints(self) -> str:
         """Return the allowed values in words ('' when any value of the type is)."""
         if self.choices:
-            return 'one of ' + ', '.join(c or "\'\'" for c in self.choices)
+            return 'one of ' + ', '.join(c or "''" for c in self.choices)
         if self.low is None and self.high is None:
             return ''
         lo = '' if self.low is None else f'{self.low:g} {"<" if self.above_low else "<="} '
