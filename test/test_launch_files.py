@@ -214,28 +214,36 @@ def test_ros2_launch_runs_the_nodes():
 
 
 def test_environment_hook_sets_ros_distro():
-    """The installed hook sets ROS_DISTRO=jazzy (if unset); scripts/env.sh sources it."""
+    """
+    ``source install/setup.bash`` in a clean shell sets ROS_DISTRO=jazzy; a set one is kept.
+
+    colcon reads colcon.pkg's hooks (colcon-metadata) and lists them in the package's
+    package.dsv, which install/setup.bash sources; scripts/env.sh gets ROS_DISTRO from there.
+    """
+    import json
+
     from ament_index_python.packages import get_package_share_directory
     share = get_package_share_directory('px100_control')
-    hook = os.path.join(share, 'environment', 'ros_distro.sh')
-    with open(os.path.join(share, 'environment', 'ros_distro.dsv')) as f:
-        assert f.read().strip() == 'set-if-unset;ROS_DISTRO;jazzy'
-    env = {k: v for k, v in os.environ.items() if k != 'ROS_DISTRO'}
-    out = subprocess.run(['bash', '-c', f'source {hook}; echo "$ROS_DISTRO"'], env=env,
-                         capture_output=True, text=True, check=True).stdout.strip()
-    assert out == 'jazzy'
-    out = subprocess.run(['bash', '-c', f'ROS_DISTRO=rolling; source {hook}; echo $ROS_DISTRO'],
-                         env=env, capture_output=True, text=True, check=True).stdout.strip()
-    assert out == 'rolling'
-    env['PX100_VENV'] = os.environ.get('PX100_VENV', os.path.join(ROOT, '.venv'))
-    out = subprocess.run(['bash', '-c', f'source {ROOT}/scripts/env.sh; echo "$ROS_DISTRO"'],
-                         env=env, capture_output=True, text=True, check=True).stdout.strip()
-    assert out.splitlines()[-1] == 'jazzy'
-    import json
+    prefix = os.path.dirname(os.path.dirname(share))        # <install>/px100_control
+    setup_bash = os.path.join(os.path.dirname(prefix), 'setup.bash')
     with open(os.path.join(ROOT, 'colcon.pkg')) as f:
         hooks = json.load(f)['hooks']
     assert sorted(hooks) == ['share/px100_control/environment/ros_distro.dsv',
                              'share/px100_control/environment/ros_distro.sh']
-    prefix = os.path.dirname(os.path.dirname(share))
+    with open(os.path.join(share, 'environment', 'ros_distro.dsv')) as f:
+        assert f.read().strip() == 'set-if-unset;ROS_DISTRO;jazzy'
+    with open(os.path.join(share, 'package.dsv')) as f:
+        listed = f.read().split()
     for h in hooks:
-        assert os.path.isfile(os.path.join(prefix, h)), h
+        assert f'source;{h}' in listed, f'colcon did not register {h}: {listed}'
+
+    clean = {'PATH': '/usr/bin:/bin', 'HOME': os.environ.get('HOME', '/tmp')}
+
+    def distro(script, **env):
+        return subprocess.run(['bash', '-c', f'source {script} && echo "=$ROS_DISTRO"'],
+                              env=dict(clean, **env), capture_output=True, text=True,
+                              check=True).stdout.strip().splitlines()[-1]
+    assert distro(setup_bash) == '=jazzy'
+    assert distro(setup_bash, ROS_DISTRO='rolling') == '=rolling'
+    venv = os.environ.get('PX100_VENV', os.path.join(ROOT, '.venv'))
+    assert distro(os.path.join(ROOT, 'scripts', 'env.sh'), PX100_VENV=venv) == '=jazzy'

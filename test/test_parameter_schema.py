@@ -1,14 +1,23 @@
 """The parameter schemas: config files checked against them, descriptors and --help from them."""
+import ast
 import glob
 import math
 import os
 
-from px100_control.ros import parameter_schema as ps
+from px100_control import parameters as ps
 import pytest
 import yaml
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CONFIGS = sorted(glob.glob(os.path.join(ROOT, 'config', '*.yaml')))
+#: the schemas each executable's --help prints (bag tools have no ROS parameters)
+HELP_SCHEMAS = {
+    'sim_driver': [ps.SIM_DRIVER], 'ik_service': [ps.IK_SERVICE],
+    'trajectory_server': [ps.TRAJECTORY_SERVER], 'record': [ps.RECORDER],
+    'replay': [ps.REPLAYER], 'viewer': [ps.VIEWER],
+    'bringup': [ps.SIM_DRIVER, ps.IK_SERVICE, ps.TRAJECTORY_SERVER, ps.VIEWER],
+    'inspect': [], 'bag_reindex': [],
+}
 
 
 def test_there_are_config_files():
@@ -63,10 +72,66 @@ def test_checks_match_the_values_the_nodes_know():
     """Choices in the schema are the engines' own lists (no drift)."""
     from px100_control.control.trajectory import PROFILES
     from px100_control.control.pid import GAIN_FIELDS
+    from px100_control.control.simulator import MODES
     from px100_control.kinematics.solve import METHODS
     assert tuple(ps.IK_SERVICE['method'].choices) == tuple(METHODS)
     assert tuple(ps.TRAJECTORY_SERVER['profile'].choices) == tuple(PROFILES)
     assert tuple(ps.GAIN_FIELDS_DOC) == tuple(GAIN_FIELDS)
+    assert ps.SIM_DRIVER.group('gains.').fields == tuple(GAIN_FIELDS)
+    assert ps.SIM_DRIVER.group('operating_mode.').spec.choices == ('',) + tuple(MODES)
+
+
+def test_per_joint_groups_in_a_params_file():
+    """torque_enable.<joint>, operating_mode.<joint>, gains.<joint>.<field> are accepted."""
+    good = {'/**/sim_driver': {'ros__parameters': {
+        'torque_enable': {'waist': False, 'gripper': True},
+        'operating_mode': {'elbow': 'duty', 'waist': ''},
+        'gains': {'waist': {'p': 800, 'i': 0.0, 'd': 0.5}}, 'gains_units': 'dynamixel'}}}
+    assert ps.check_params(good) == []
+    bad = {'/**/sim_driver': {'ros__parameters': {
+        'torque_enable': {'waist': 'off', 'elbow': {'x': True}},
+        'operating_mode': {'elbow': 'pwm'},
+        'gains': {'waist': {'p': -1.0, 'd': float('inf')}, 'shoulder': 3.0}}}}
+    problems = ps.check_params(bad, source='f.yaml')
+    expected = ["torque_enable.waist must be true or false, not 'off'",
+                'torque_enable.elbow.x: torque_enable are torque_enable.<joint>',
+                "operating_mode.elbow must be one of '', position, velocity, torque, duty, "
+                "not 'pwm'",
+                'gains.waist.p = -1.0 is not 0 <= value',
+                'gains.waist.d must be finite, not inf',
+                'gains.shoulder: gains are gains.<joint>.<field> with field one of p, i, d']
+    assert len(problems) == len(expected), problems
+    for problem, words in zip(problems, expected):
+        assert problem.startswith('f.yaml: /**/sim_driver: ') and words in problem, problem
+    assert ps.SIM_DRIVER.get('gains.waist.p').accepts_integer
+    assert ps.SIM_DRIVER.get('torque_enable.gripper').default is True
+    assert ps.SIM_DRIVER.get('publish_rate') is ps.SIM_DRIVER['publish_rate']
+    assert ps.SIM_DRIVER.get('nothing.waist') is None
+
+
+def test_engine_checks_take_the_schema_ranges():
+    """The engines' own checks refuse just outside the schema's bounds (one source)."""
+    from px100_control.control.ik_requests import parameter_error
+    from px100_control.sim.driver_parameters import core_error, CORE_PARAMS
+    from px100_control.viewer.controls import check_settings
+    for spec in ps.IK_SERVICE.params:
+        if spec.kind == 'double' and spec.low is not None:
+            below = spec.low if spec.above_low else spec.low - 1e-9
+            assert parameter_error(spec.name, below, 4).startswith(spec.name)
+            assert parameter_error(spec.name, spec.default, 4) is None
+    core = {n: ps.SIM_DRIVER[n].default for n in CORE_PARAMS}
+    for name in ('control_rate', 'publish_rate', 'clock_rate', 'object_width', 'world_rate',
+                 'dynamics_divider', 'real_time_factor'):
+        spec = ps.SIM_DRIVER[name]
+        step = 1 if spec.kind == 'integer' else 1e-6
+        values = dict(core, publish_rate=min(core['publish_rate'], spec.high))
+        assert core_error(dict(values, **{name: spec.high})) is None, name
+        assert name in core_error(dict(values, **{name: spec.high * (1 + step)})), name
+        assert name in core_error(dict(values, **{name: spec.low - step})), name
+    view = ps.VIEWER
+    check_settings(view['rate'].low, view['trail_length'].high, view['port'].high)
+    with pytest.raises(ValueError, match='trail_length'):
+        check_settings(view['rate'].low, view['trail_length'].low - 1, view['port'].high)
 
 
 def test_spec_check_bounds():
@@ -99,21 +164,33 @@ def test_config_px100_states_the_defaults():
             assert values[name] == default, (schema.node, name, values[name], default)
 
 
-@pytest.mark.parametrize('name,schemas', [
-    ('sim_driver', [ps.SIM_DRIVER]), ('ik_service', [ps.IK_SERVICE]),
-    ('trajectory_server', [ps.TRAJECTORY_SERVER]), ('record', [ps.RECORDER]),
-    ('replay', [ps.REPLAYER]),
-    ('bringup', [ps.SIM_DRIVER, ps.IK_SERVICE, ps.TRAJECTORY_SERVER])])
-def test_help_prints_the_parameters(name, schemas):
-    """`<exe> --help` lists every parameter with its default and constraints."""
+def test_help_covers_every_executable():
+    """HELP_SCHEMAS names every executable setup.py installs (the test below runs each)."""
+    with open(os.path.join(ROOT, 'setup.py'), encoding='utf-8') as f:
+        tree = ast.parse(f.read())
+    exes = next(ast.literal_eval(n.value) for n in ast.walk(tree) if isinstance(n, ast.Assign)
+                and any(getattr(t, 'id', '') == 'EXECUTABLES' for t in n.targets))
+    assert set(HELP_SCHEMAS) == set(exes)
+
+
+@pytest.mark.parametrize('name', sorted(HELP_SCHEMAS))
+def test_help_prints_the_parameters(name):
+    """`<exe> --help` lists every parameter and parameter group with default and constraints."""
     from px100_control.tools.processes import NodeProcess
     with NodeProcess(name, ['--help']) as proc:
         proc.proc.wait(60)
         out = proc.output()
     assert proc.proc.returncode == 0, out
-    for schema in schemas:
-        for spec in schema.params:
+    assert out.startswith('usage: ' + name), out
+    for schema in HELP_SCHEMAS[name]:
+        assert f'parameters of {schema.node} ' in out
+        for spec in list(schema.params) + [g.spec for g in schema.groups]:
             assert spec.help_line().splitlines()[0] in out, (spec.name, out)
+    if name == 'sim_driver':
+        for line in ('gains.<joint>.<field> (double or integer, default the servo',
+                     'torque_enable.<joint> (bool, default true)',
+                     "operating_mode.<joint> (string, default '') [one of '', position"):
+            assert line in out, out
 
 
 def test_descriptors_of_a_running_node(rclpy_context):
@@ -142,6 +219,53 @@ def test_descriptors_of_a_running_node(rclpy_context):
                                    rclpy.parameter.Parameter('moving_time', value=3.0)])
         assert [r.successful for r in res] == [False, False, False, True]
         assert 'goal_tolerance' in res[0].reason and 'status_history' in res[1].reason
+    finally:
+        node.destroy_node()
+
+
+def test_per_joint_groups_on_a_running_driver(rclpy_context, tmp_path):
+    """
+    A params file with torque_enable / operating_mode / gains groups starts a real sim_driver.
+
+    The members carry the schema's descriptors; a negative gain is refused by name.
+    """
+    from px100_control.ros.sim_driver_node import SimDriverNode
+    from rcl_interfaces.msg import ParameterType
+    import rclpy.parameter
+    path = tmp_path / 'groups.yaml'
+    data = {'/**/sim_driver': {'ros__parameters': {
+        'torque_enable': {'waist': False}, 'operating_mode': {'elbow': 'velocity'},
+        'gains': {'wrist_angle': {'i': 0}}}}}
+    path.write_text(yaml.safe_dump(data))
+    assert ps.check_params_file(str(path)) == []
+    node = SimDriverNode(context=rclpy_context, namespace='/schema_test',
+                         cli_args=['--ros-args', '--params-file', str(path)])
+    try:
+        assert node.get_parameter('torque_enable.waist').value is False
+        assert node.get_parameter('torque_enable.elbow').value is True
+        assert node.get_parameter('operating_mode.elbow').value == 'velocity'
+        assert node.sim.modes.get('elbow') == 'velocity'
+        assert node.get_parameter('gains.wrist_angle.i').value == 0     # an integer, taken
+        d = node.describe_parameter('gains.waist.p')
+        assert d.dynamic_typing and d.description == ps.SIM_DRIVER.group('gains.').spec.description
+        assert d.floating_point_range[0].from_value == 0.0
+        assert d.floating_point_range[0].to_value == math.inf
+        assert d.integer_range[0].from_value == 0
+        assert d.additional_constraints == '0 <= value'
+        d = node.describe_parameter('torque_enable.gripper')
+        assert d.type == ParameterType.PARAMETER_BOOL and 'coasts' in d.description
+        d = node.describe_parameter('operating_mode.waist')
+        assert d.type == ParameterType.PARAMETER_STRING
+        assert d.additional_constraints == "one of '', position, velocity, torque, duty"
+        res = node.set_parameters([rclpy.parameter.Parameter('gains.waist.p', value=-1.0),
+                                   rclpy.parameter.Parameter('gains.waist.i', value=-2),
+                                   rclpy.parameter.Parameter('operating_mode.waist',
+                                                             value='current'),
+                                   rclpy.parameter.Parameter('torque_enable.waist', value=True)])
+        assert [r.successful for r in res] == [False, False, False, True], res
+        assert 'gains.waist.p' in res[0].reason and 'gains.waist.i' in res[1].reason
+        assert 'operating_mode.waist must be' in res[2].reason
+        assert node.get_parameter('torque_enable.waist').value is True
     finally:
         node.destroy_node()
 

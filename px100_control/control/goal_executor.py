@@ -41,11 +41,13 @@ import numpy as np
 
 from px100_control.control import trajectory as tj
 from px100_control.errors import InvalidInputError
+from px100_control.parameters import bound_error, TRAJECTORY_SERVER
 
 SUCCEEDED, CANCELED, ABORTED = 'SUCCEEDED', 'CANCELED', 'ABORTED'
-#: the shortest hold_after [s]: a goal pauses while measurements are older, so it must exceed
-#: the driver's publish period (20 Hz here; sim_driver publishes at 100 Hz)
-MIN_HOLD_AFTER = 0.05
+#: the shortest hold_after [s] (the schema's bound): a goal pauses while measurements are
+#: older, so it must exceed the driver's publish period (20 Hz here; sim_driver publishes at
+#: 100 Hz)
+MIN_HOLD_AFTER = TRAJECTORY_SERVER['hold_after'].low
 
 
 @dataclass
@@ -412,23 +414,19 @@ class GoalExecutor:
 
 
 def settings_error(name: str, v) -> str:
-    """Return why a value of setting ``name`` is refused ('' when it is valid)."""
+    """
+    Return why a value of setting ``name`` is refused ('' when it is valid).
+
+    Ranges are the schema's (:data:`px100_control.parameters.TRAJECTORY_SERVER`).
+    """
     if name == 'profile' and v not in tj.PROFILES:
         return f"profile must be one of {', '.join(tj.PROFILES)}, got '{v}'"
-    if name == 'hold_after' and isinstance(v, (int, float)) and v < MIN_HOLD_AFTER:
+    error = bound_error(TRAJECTORY_SERVER, name, v)
+    if error and name == 'hold_after':
         # shorter than the gap between two samples: every goal would stay paused
         return (f"hold_after must be >= {MIN_HOLD_AFTER} s (longer than the driver's publish "
                 f'period), got {v!r}')
-    if name in ('rate', 'moving_time', 'max_joint_step', 'state_timeout', 'hold_after',
-                'path_tolerance', 'goal_tolerance', 'stop_deceleration'):
-        if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-            return f'{name} must be > 0, got {v!r}'
-    if name in ('accel_time', 'goal_time_tolerance', 'start_tolerance', 'path_window'):
-        if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-            return f'{name} must be >= 0, got {v!r}'
-    if name == 'status_history' and (not isinstance(v, int) or v < 1):
-        return f'status_history must be >= 1, got {v!r}'
-    return ''
+    return error or ''
 
 
 def fmt(q) -> str:

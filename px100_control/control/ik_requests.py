@@ -12,22 +12,25 @@ from typing import Callable, List, Optional, Sequence, Tuple
 from px100_control.control.path_timing import joint_speed_bounds, path_times
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.solve import METHODS, solve_path
+from px100_control.parameters import bound_error, IK_SERVICE
 
 #: orientation_mode parameter value -> solve_ik mode
 MODES = {'pitch': 'pitch', 'strict': 'full'}
 
 
 def parameter_error(name: str, value, dof: int) -> Optional[str]:
-    """Return why ``value`` is refused for the ik_service parameter ``name``, or None."""
+    """
+    Return why ``value`` is refused for the ik_service parameter ``name``, or None.
+
+    Number ranges are the schema's (:data:`px100_control.parameters.IK_SERVICE`).
+    """
     if name == 'orientation_mode' and value not in MODES:
         return f"orientation_mode must be 'pitch' or 'strict', got {value!r}"
     if name == 'method' and value not in METHODS:
         return f'method must be one of {METHODS}, got {value!r}'
-    if name in ('tol_position', 'tol_orientation', 'orientation_tolerance') and not (
-            isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        return f'{name} must be > 0, got {value!r}'
-    if name == 'max_iterations' and not (isinstance(value, int) and value > 0):
-        return f'max_iterations must be > 0, got {value!r}'
+    error = bound_error(IK_SERVICE, name, value)
+    if error:
+        return error
     if name == 'nominal_pose':
         vals = list(value or [])
         if len(vals) != dof or not all(math.isfinite(x) for x in vals):

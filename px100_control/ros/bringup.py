@@ -11,9 +11,9 @@ robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to
 import sys
 from typing import List
 
+from px100_control.parameters import IK_SERVICE, SIM_DRIVER, TRAJECTORY_SERVER, VIEWER
 from px100_control.ros.common import parse_cli, run_nodes
 from px100_control.ros.ik_service_node import IkServiceNode
-from px100_control.ros.parameter_schema import IK_SERVICE, SIM_DRIVER, TRAJECTORY_SERVER
 from px100_control.ros.sim_driver_node import SimDriverNode
 from px100_control.ros.trajectory_server_node import TrajectoryServerNode
 
@@ -45,7 +45,7 @@ def main(args=None) -> int:
     """Run the three nodes until SIGINT/SIGTERM (``ros2 run px100_control bringup``)."""
     options, argv = parse_cli('Run sim_driver, ik_service and trajectory_server of px100_control '
                               'in one process.', args, _add_arguments,
-                              schemas=(SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER))
+                              schemas=(SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER))
     return run_nodes(lambda: create_nodes(viewer=options.viewer), argv)
 
 

@@ -11,14 +11,13 @@ prefixes the tf frames (``<robot_name>/base_link``); ``robot_name:=''`` with no 
 the node in ``/`` with unprefixed frames.
 """
 import argparse
-import math
 import signal
 from typing import List, Optional, Sequence
 
-from px100_control.errors import InvalidInputError
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
-from px100_control.ros.parameter_schema import COMMON, NodeSchema, ParamSpec
+from px100_control.parameters import COMMON, NodeSchema
+from px100_control.ros.parameter_schema import parameter_descriptor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
@@ -68,65 +67,6 @@ def robot_node_kwargs(node_name: str, node_kwargs: dict) -> dict:
     name = DEFAULT_ROBOT_NAME if name is None else str(name).strip('/')
     kwargs['namespace'] = f'/{name}' if name else ''
     return kwargs
-
-
-def parameter_descriptor(spec: ParamSpec):
-    """Return the rcl_interfaces ParameterDescriptor of a schema entry (ranges, read-only)."""
-    from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                    ParameterType)
-    kinds = {'double': ParameterType.PARAMETER_DOUBLE,
-             'integer': ParameterType.PARAMETER_INTEGER, 'bool': ParameterType.PARAMETER_BOOL,
-             'string': ParameterType.PARAMETER_STRING,
-             'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY}
-    d = ParameterDescriptor(name=spec.name, type=kinds[spec.kind], description=spec.description,
-                            additional_constraints=spec.constraints(),
-                            read_only=spec.read_only)
-    if spec.low is not None or spec.high is not None:
-        low = spec.low if spec.low is not None else -math.inf
-        high = spec.high if spec.high is not None else math.inf
-        if spec.allow_inf:
-            high = math.inf      # the check in the schema keeps the finite upper bound
-        if spec.kind == 'integer':
-            d.integer_range = [IntegerRange(from_value=int(low), to_value=int(high), step=0)]
-        else:
-            d.floating_point_range = [FloatingPointRange(from_value=float(low),
-                                                         to_value=float(high), step=0.0)]
-    return d
-
-
-def declare_schema(node: Node, schema: NodeSchema, defaults: Optional[dict] = None,
-                   skip: Sequence[str] = ('robot_model', 'robot_name')) -> None:
-    """
-    Declare a node's parameters from its schema and check every value set later against it.
-
-    :param defaults: {name: default} for the parameters the node computes (spec default None)
-    :param skip: names declared elsewhere (robot_model / robot_name by
-        :func:`declare_robot_parameters`)
-    :raises Px100Error: a value from the command line or a params file is not valid (the
-        message names the parameter and the allowed values)
-    """
-    from rcl_interfaces.msg import SetParametersResult
-    defaults = defaults or {}
-    names = []
-    for spec in schema.params:
-        if spec.name in skip:
-            continue
-        default = defaults.get(spec.name, spec.default)
-        node.declare_parameter(spec.name, default, parameter_descriptor(spec))
-        names.append(spec.name)
-
-    def _check(params):
-        for p in params:
-            if p.name in names:
-                problem = schema[p.name].check(p.value)
-                if problem:
-                    return SetParametersResult(successful=False, reason=problem)
-        return SetParametersResult(successful=True)
-
-    node.add_on_set_parameters_callback(_check)
-    bad = _check([node.get_parameter(n) for n in names]).reason
-    if bad:
-        raise InvalidInputError(f'{schema.node} parameters: {bad}')
 
 
 def declare_robot_parameters(node: Node) -> RobotModel:

@@ -47,12 +47,13 @@ from px100_control.control.ik_requests import (MODES, parameter_error, path_targ
                                                result_values, solved_message)
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.solve import solve_ik
+from px100_control.parameters import IK_SERVICE
 from px100_control.ros import cdr
-from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
-                                      robot_name, robot_node_kwargs, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
+                                      robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
 from px100_control.ros.ik_messages import IkReplies, parse_pose_stamped
-from px100_control.ros.parameter_schema import IK_SERVICE
+from px100_control.ros.parameter_schema import declare_schema
 from px100_control.wire.private_api import take_serialized
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration

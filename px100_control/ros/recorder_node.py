@@ -51,12 +51,12 @@ from px100_control.bag.tool_options import add_record_arguments
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
+from px100_control.parameters import COMMON, RECORDER
 from px100_control.ros.bag_qos import SUBSCRIPTION_DEPTH
 from px100_control.ros.bag_tool import run_bag_tool
-from px100_control.ros.common import (LATCHED_QOS, parameter_descriptor, parse_cli,
-                                      robot_name, robot_node_kwargs)
+from px100_control.ros.common import LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs
 from px100_control.ros.message_types import joint_positions, string_data, world_markers
-from px100_control.ros.parameter_schema import COMMON, RECORDER
+from px100_control.ros.parameter_schema import parameter_descriptor
 from px100_control.ros.recorder_topics import RecorderTopics, take_next
 from rclpy.node import Node
 from std_msgs.msg import String

@@ -34,11 +34,12 @@ from px100_control.bag.replay import (command_topics, parse_remaps, progress_tex
 from px100_control.bag.tool_options import add_replay_arguments, extract_remaps
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
+from px100_control.parameters import COMMON, REPLAYER
 from px100_control.ros.bag_qos import publisher_qos
 from px100_control.ros.bag_tool import run_bag_tool
-from px100_control.ros.common import parameter_descriptor, parse_cli, robot_node_kwargs
+from px100_control.ros.common import parse_cli, robot_node_kwargs
 from px100_control.ros.message_types import message_class
-from px100_control.ros.parameter_schema import COMMON, REPLAYER
+from px100_control.ros.parameter_schema import parameter_descriptor
 from px100_control.ros.replay_guard import CommandGuard
 from rclpy.duration import Duration
 from rclpy.node import Node

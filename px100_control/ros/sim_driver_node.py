@@ -2,7 +2,7 @@
 sim_driver: the simulated joint-state driver (joint dynamics + one PID loop per joint).
 
 A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
-(docs/ros_interfaces.md, sim_driver section). Topics under ``/<robot_name>``:
+(docs/ros_interfaces.md, sim_driver section). Topics in the node's namespace (the robot's):
 
 - pub ``joint_states`` (sensor_msgs/JointState, ``publish_rate``): arm joints, gripper,
   left_finger, right_finger; position, velocity, effort (N*m; fingers m, m/s, N);
@@ -38,13 +38,10 @@ paced by :mod:`px100_control.ros.sim_physics`). With ``real_time_factor`` 1 and
 0 at ``real_time_factor`` x wall time (0 or inf: as fast as possible; changeable live), stamps
 with it and publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` of simulated time.
 
-Parameters (defaults in config/px100.yaml, validated live): ``publish_rate`` [Hz],
-``control_rate`` [Hz], ``real_time_factor``, ``publish_clock``, ``clock_rate`` [Hz],
-``dynamics_divider``, ``object_width`` [m] (an object between the fingers, 0 = none),
-``scene`` (a name in config/scenes, a path to a .yaml, '' = no objects; a bad one is refused
-with the loader's reason: at start the node exits non-zero), ``world_rate`` [Hz],
-``gains_units`` (read-only: ``si`` or ``dynamixel``: p/i/d as Position P/I/D Gain registers),
-``gains.<joint>.p|i|d|i_clamp|u_clamp|ff_velocity`` for every arm joint and the gripper.
+Parameters (:data:`px100_control.parameters.SIM_DRIVER`, defaults in config/px100.yaml,
+validated live): rates, clock, object width, scene (a bad one is refused with the loader's
+reason: at start the node exits non-zero), gains units, and per joint ``gains.<joint>.<field>``,
+``torque_enable.<joint>``, ``operating_mode.<joint>``.
 """
 import collections
 from dataclasses import replace
@@ -58,11 +55,11 @@ from geometry_msgs.msg import PoseStamped
 from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
-from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
-                                      LATCHED_QOS, robot_name, robot_node_kwargs, robot_topic,
-                                      spin_node)
+from px100_control.parameters import SIM_DRIVER
+from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
+                                      robot_name, robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import time_from_ns
-from px100_control.ros.parameter_schema import SIM_DRIVER
+from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
 from px100_control.ros.sim_joint_parameters import JointParameters
 from px100_control.ros.sim_messages import error_array, joint_state, pose_stamped, shown_names
@@ -273,7 +270,7 @@ class SimDriverNode(Node):
 
     def _check_peers(self) -> None:
         """Log (once per change) and report on /diagnostics a second driver in the namespace."""
-        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
+        ns = self.get_namespace()    # where its topics are (robot_name may differ)
         message = new_duplicates(self, 'drivers', ns, self._duplicates)
         if message and message != self._duplicates:
             self._publish_error('peers', message)

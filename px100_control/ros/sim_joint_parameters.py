@@ -7,20 +7,17 @@ The sim_driver's per-joint parameters, for every arm joint and the gripper.
 - ``operating_mode.<joint>`` (string): '' (default), 'position', 'velocity', 'torque' [N*m] or
   'duty' [-1, 1].
 
-The checks and conversions are :mod:`px100_control.sim.driver_parameters` (no ROS); this
+Types, ranges and descriptions are the groups of :data:`px100_control.parameters.SIM_DRIVER`;
+the checks and conversions are :mod:`px100_control.sim.driver_parameters` (no ROS); this
 module declares the parameters on the node and applies them to its ArmSimulator.
 """
 from px100_control.control.pid import GAIN_FIELDS
 from px100_control.errors import Px100Error
-from px100_control.ros.parameter_schema import SIM_DRIVER
+from px100_control.parameters import SIM_DRIVER
+from px100_control.ros.parameter_schema import parameter_descriptor
 from px100_control.sim.driver_parameters import (changed_gains, gain_defaults, gain_keys,
                                                  gains_error, joint_change_error,
                                                  joint_switches, mode_error, to_gains)
-from rcl_interfaces.msg import ParameterDescriptor
-
-#: description of the operating_mode.<joint> parameters
-MODE_HELP = ("'' (default), 'position', 'velocity', 'torque' [N*m] or 'duty' [-1, 1]: what "
-             'commands/joint_setpoints carries for this joint')
 
 
 class JointParameters:
@@ -40,26 +37,30 @@ class JointParameters:
     def _value(self, name: str):
         return self._node.get_parameter(name).value
 
+    def _declare(self, name: str, default=None):
+        """Declare a per-joint parameter with its group's descriptor (default: the group's)."""
+        spec = SIM_DRIVER.get(name)
+        value = spec.default if default is None else default
+        return self._node.declare_parameter(name, value, parameter_descriptor(spec))
+
     def declare(self, sim) -> None:
         """
         Declare the parameters and apply their values to ``sim``.
 
         :raises Px100Error: a value from the command line or a params file is refused
         """
-        dyn = ParameterDescriptor(dynamic_typing=True, description=SIM_DRIVER.groups[0][1])
+        declare = self._declare
         for joint in self.joints:
             defaults = gain_defaults(sim, joint, self.units)  # scaled to the joint's servo
-            values = {f: self._node.declare_parameter(k, defaults[f], dyn).value
+            values = {f: declare(k, defaults[f]).value
                       for f, k in zip(GAIN_FIELDS, gain_keys(joint))}
             error = gains_error(sim, joint, values, self.units)
             if error:
                 raise Px100Error(error)
             sim.set_gains(joint, to_gains(sim, joint, values, self.units))
         for joint in self.joints:
-            self._node.declare_parameter(f'torque_enable.{joint}', True, ParameterDescriptor(
-                description=f'torque of {joint} on (false: the servo coasts)'))
-            mode = self._node.declare_parameter(f'operating_mode.{joint}', '',
-                                                ParameterDescriptor(description=MODE_HELP))
+            declare(f'torque_enable.{joint}')
+            mode = declare(f'operating_mode.{joint}')
             if mode.value:
                 error = mode_error(mode.name, mode.value)
                 if error:

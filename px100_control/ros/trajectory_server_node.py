@@ -1,8 +1,8 @@
 """
 trajectory_server: action-style joint trajectory execution over standard messages.
 
-Topics and services are those of docs/ros_interfaces.md, relative to ``/<robot_name>``. This
-node is wiring: it declares the parameters, turns messages into the goal executor's inputs
+Topics and services are those of docs/ros_interfaces.md, in the node's namespace. This node is
+wiring: it declares the parameters, turns messages into the goal executor's inputs
 (:mod:`px100_control.control.goal_executor`, where the goal semantics live: planning, sampling,
 hold/resume, tracking and settle verdicts, the watchdog) and publishes what it decides.
 
@@ -26,14 +26,15 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from px100_control.control.goal_executor import Goal, GoalExecutor, Outcome, Settings
 from px100_control.control.goal_executor import settings_error
 from px100_control.errors import InvalidInputError
+from px100_control.parameters import TRAJECTORY_SERVER
 from px100_control.ros import cdr
-from px100_control.ros.common import (declare_robot_parameters, declare_schema, robot_name,
-                                      robot_node_kwargs, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, robot_name, robot_node_kwargs,
+                                      robot_topic, spin_node)
 from px100_control.ros.conversions import stamp_id, stamp_key
 from px100_control.ros.goal_status import (cancel_matches, DIAG_LEVEL, diagnostic, goal_request,
                                            shape_error, STATUS_CODES, STATUS_NAMES, StatusBook,
                                            uuid_bytes)
-from px100_control.ros.parameter_schema import TRAJECTORY_SERVER
+from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
@@ -244,8 +245,8 @@ class TrajectoryServerNode(Node):
 
     def _check_peers(self) -> None:
         """Log (once per change) a second trajectory server in the namespace, by name."""
-        ns = '/' + robot_name(self) if robot_name(self) else self.get_namespace()
-        self._duplicates = new_duplicates(self, 'trajectory_servers', ns, self._duplicates)
+        self._duplicates = new_duplicates(self, 'trajectory_servers', self.get_namespace(),
+                                          self._duplicates)
 
     def _on_watchdog(self) -> None:
         """Abort the running goal when joint_states stopped (the engine decides); log stalls."""

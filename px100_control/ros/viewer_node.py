@@ -30,11 +30,13 @@ from action_msgs.msg import GoalStatusArray
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from px100_control.ros.common import (declare_robot_parameters, declare_schema, frame_id,
+from px100_control.parameters import VIEWER
+from px100_control.ros.common import (declare_robot_parameters, frame_id,
+                                      ignore_further_interrupts, install_stop_signals,
                                       LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
-                                      robot_topic, spin_node)
+                                      robot_topic, spin_node, stop_requested)
 from px100_control.ros.conversions import time_from_ns
-from px100_control.ros.parameter_schema import VIEWER
+from px100_control.ros.parameter_schema import declare_schema
 from px100_control.viewer.bag_view import serve_bag
 from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_read_only,
                                            goal_move, GRIPPER_EFFORT)
@@ -321,8 +323,13 @@ def main(args=None) -> int:
     description = ('Serve a live 3D page of the robot (http://127.0.0.1:8080) with joint '
                    'sliders, an end-effector gizmo and buttons, or play a bag with --bag.')
     options, _ = parse_cli(description, args, _add_arguments, (VIEWER,))
-    if options.bag:
-        return serve_bag(options.bag, host=options.host, port=options.port)
+    if options.bag:     # no node: SIGINT / SIGTERM end the page loop as they end a spin
+        install_stop_signals()
+        try:
+            return serve_bag(options.bag, host=options.host, port=options.port,
+                             stop=stop_requested)
+        finally:
+            ignore_further_interrupts()
     return spin_node(lambda opts: ViewerNode(), args, description, _add_arguments,
                      schema=VIEWER)
 

@@ -5,20 +5,23 @@ Each check returns the reason a value is refused (the text the node logs and ans
 ``set_parameters`` with), or None. ``sim`` is the node's ArmSimulator; ``current(name)``
 returns a parameter's value as set so far. Units: gains in SI (``p`` N*m/rad, ``i``
 N*m/(rad*s), ``d`` N*m*s/rad) or, with ``gains_units`` 'dynamixel', p/i/d as the XL430's
-Position P/I/D Gain registers; rates [Hz]; ``object_width`` [m].
+Position P/I/D Gain registers; rates [Hz]; ``object_width`` [m]. Ranges and allowed values
+are the schema's (:data:`px100_control.parameters.SIM_DRIVER`).
 """
 import math
 from typing import Callable, Dict, List, Optional, Tuple
 
 from px100_control.control.pid import GAIN_FIELDS, PidGains
-from px100_control.control.simulator import MODES
 from px100_control.errors import Px100Error
+from px100_control.parameters import SIM_DRIVER
 
 #: the parameters checked together (one may be valid only with another's value)
 CORE_PARAMS = ('publish_rate', 'control_rate', 'real_time_factor', 'publish_clock',
                'clock_rate', 'dynamics_divider', 'object_width', 'gains_units', 'world_rate')
 #: the values of ``gains_units``
-GAINS_UNITS = ('si', 'dynamixel')
+GAINS_UNITS = SIM_DRIVER['gains_units'].choices
+#: the values of ``operating_mode.<joint>`` ('' = the joint's default)
+MODE_CHOICES = SIM_DRIVER.group('operating_mode.').spec.choices
 
 
 def gain_keys(joint: str) -> List[str]:
@@ -81,34 +84,30 @@ def stability_error(sim, joint: str, gains: PidGains, dt: float) -> Optional[str
     return None
 
 
-def _number_error(p: dict, name: str, lo: float, hi: float,
-                  allow_inf: bool = False) -> Optional[str]:
-    v = p[name]
+def _number_error(p: dict, name: str) -> Optional[str]:
+    """Return why p[name] is out of its schema range [low, high] (+inf where allowed), or None."""
+    v, spec = p[name], SIM_DRIVER[name]
     if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
         return f'{name} must be a number, not {v!r}'
-    if math.isinf(v) and allow_inf:
+    if spec.kind == 'integer' and (not isinstance(v, int) or v < spec.low):
+        return f'{name} must be an integer >= {spec.low:g}, not {v!r}'
+    if math.isinf(v) and spec.allow_inf:
         return None
-    if not lo <= v <= hi:
-        return f'{name} = {v} is outside [{lo}, {hi}]'
+    if not spec.low <= v <= spec.high:
+        return f'{name} = {v} is outside [{spec.low}, {spec.high}]'
     return None
 
 
 def core_error(p: dict, sim=None) -> Optional[str]:
     """Return why the CORE_PARAMS values ``p`` are refused, or None (``sim``: object_width)."""
-    for err in (_number_error(p, 'control_rate', 10.0, 100000.0),
-                _number_error(p, 'publish_rate', 0.1, 1000.0),
-                _number_error(p, 'real_time_factor', 0.0, 1e6, allow_inf=True),
-                _number_error(p, 'clock_rate', 1.0, 10000.0),
-                _number_error(p, 'object_width', 0.0, 10.0),
-                _number_error(p, 'world_rate', 0.1, 1000.0)):
+    for name in ('control_rate', 'publish_rate', 'real_time_factor', 'clock_rate',
+                 'object_width', 'world_rate', 'dynamics_divider'):
+        err = _number_error(p, name)
         if err:
             return err
     if p['publish_rate'] > p['control_rate']:
         return (f"publish_rate {p['publish_rate']} Hz is above control_rate "
                 f"{p['control_rate']} Hz")
-    div = p['dynamics_divider']
-    if isinstance(div, bool) or not isinstance(div, int) or div < 1:
-        return f'dynamics_divider must be an integer >= 1, not {div!r}'
     if sim is not None and sim.linkage is not None:
         try:
             sim.linkage.check_object_width(float(p['object_width']))
@@ -121,8 +120,9 @@ def core_error(p: dict, sim=None) -> Optional[str]:
 
 def mode_error(name: str, value) -> Optional[str]:
     """Return why ``value`` is not a control mode of parameter ``name``, or None."""
-    if value not in ('',) + tuple(MODES):
-        return (f"{name} must be '' (default) or one of {', '.join(MODES)}, not {value!r} "
+    if value not in MODE_CHOICES:
+        modes = ', '.join(m for m in MODE_CHOICES if m)
+        return (f"{name} must be '' (default) or one of {modes}, not {value!r} "
                 '(Interbotix modes map to these: current -> torque, pwm -> duty)')
     return None
 

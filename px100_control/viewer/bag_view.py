@@ -9,7 +9,7 @@ chosen speed. The trail shows the end effector over the last ``trail_s`` seconds
 import bisect
 from dataclasses import dataclass, field
 import time
-from typing import List, Optional, Tuple
+from typing import Callable, List, Optional, Tuple
 
 from px100_control.bag.reader import BagReader
 from px100_control.errors import BagError
@@ -121,9 +121,10 @@ def state_at(timeline: BagTimeline, state: ViewerState, t: float, trail_s: float
 
 def serve_bag(path: str, host: str = '127.0.0.1', port: int = 8080,
               namespace: Optional[str] = None, rate: float = 30.0,
-              stop_after: Optional[float] = None) -> int:
+              stop_after: Optional[float] = None,
+              stop: Optional[Callable[[], bool]] = None) -> int:
     """
-    Serve a bag's page until Ctrl-C (or stop_after [s]); return the exit status.
+    Serve a bag's page until Ctrl-C, ``stop()`` returns True or stop_after [s]; return the status.
 
     A bag the viewer cannot use: one error line and status 1.
     """
@@ -148,7 +149,8 @@ def serve_bag(path: str, host: str = '127.0.0.1', port: int = 8080,
     start = time.monotonic()
     last_t, last = None, time.monotonic()
     try:
-        while stop_after is None or time.monotonic() - start < stop_after:
+        while (stop_after is None or time.monotonic() - start < stop_after) and not (
+                stop is not None and stop()):
             now = time.monotonic()
             if play.value:
                 t = slider.value + (now - last) * speed.value

@@ -7,6 +7,8 @@ Joint positions [rad] (m for prismatic joints), times [s], efforts [N*m].
 """
 from typing import Dict, List, Tuple
 
+from px100_control.parameters import VIEWER
+
 #: hosts a page with controls may be served on without ``allow_remote_control``
 LOOPBACK = ('127.0.0.1', 'localhost', '::1')
 #: gripper effort of the Open/Close buttons [N*m]: the client's default grasp pressure
@@ -20,19 +22,19 @@ DRAG_PERIOD = 0.2
 
 def check_settings(rate: float, trail: int, port: int) -> None:
     """
-    Refuse viewer settings out of range.
+    Refuse viewer settings out of the schema's ranges (:data:`px100_control.parameters.VIEWER`).
 
-    :param rate: page updates [Hz], 1..60
-    :param trail: end-effector trail points, 2..100000
-    :param port: TCP port, 1..65535
+    :param rate: page updates [Hz] (1..60)
+    :param trail: end-effector trail points (2..100000)
+    :param port: TCP port (1..65535)
     :raises ValueError: naming the setting and its range
     """
-    if not 1.0 <= rate <= 60.0:
-        raise ValueError(f'viewer rate must be within 1..60 Hz, not {rate}')
-    if not 2 <= trail <= 100000:
-        raise ValueError(f'viewer trail_length must be within 2..100000, not {trail}')
-    if not 1 <= int(port) <= 65535:
-        raise ValueError(f'viewer port must be within 1..65535, not {port}')
+    for name, value, unit in (('rate', rate, ' Hz'), ('trail_length', trail, ''),
+                              ('port', int(port), '')):
+        spec = VIEWER[name]
+        if not spec.low <= value <= spec.high:
+            raise ValueError(f'viewer {name} must be within {spec.low:g}..{spec.high:g}{unit}, '
+                             f'not {value}')
 
 
 def forced_read_only(host: str, read_only: bool, allow_remote_control: bool) -> bool:

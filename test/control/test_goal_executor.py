@@ -281,9 +281,25 @@ def test_waypoints_pass_through_their_points():
 
 
 @pytest.mark.parametrize('name, value, words', [
-    ('hold_after', 0.01, '>= 0.05'), ('hold_after', math.nan, 'must be > 0'),
+    ('hold_after', 0.01, '>= 0.05'), ('hold_after', math.nan, 'hold_after must be >= 0.05'),
     ('profile', 'wobbly', 'profile must be one of'), ('accel_time', -1.0, '>= 0'),
     ('status_history', 0, '>= 1'), ('rate', math.inf, '> 0')])
 def test_settings_errors_name_the_problem(name, value, words):
     assert words in settings_error(name, value)
     assert settings_error(name, SETTINGS.get(name, 50)) == ''
+
+
+def test_settings_ranges_are_the_schemas():
+    """Every number setting is refused just outside the schema's range and taken at its ends."""
+    from px100_control.parameters import TRAJECTORY_SERVER
+    numbers = [s for s in TRAJECTORY_SERVER.params if s.kind in ('double', 'integer')]
+    assert len(numbers) >= 12
+    for spec in numbers:
+        step = 1 if spec.kind == 'integer' else 1e-9
+        assert settings_error(spec.name, spec.default) == ''
+        below = spec.low if spec.above_low else spec.low - step
+        assert spec.name in settings_error(spec.name, below)
+        assert settings_error(spec.name, True)          # a bool is not a number
+        if spec.high is not None:
+            assert settings_error(spec.name, spec.high) == ''
+            assert spec.name in settings_error(spec.name, spec.high + step)

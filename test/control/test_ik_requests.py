@@ -19,7 +19,10 @@ KWARGS = {'method': 'auto', 'tol_position': 1e-6, 'tol_orientation': 1e-6,
                         "'magic'"),
     ('tol_position', 0.0, 'tol_position must be > 0, got 0.0'),
     ('orientation_tolerance', float('inf'), 'orientation_tolerance must be > 0, got inf'),
-    ('max_iterations', 2.5, 'max_iterations must be > 0, got 2.5'),
+    ('max_iterations', 2.5, 'max_iterations must be an integer >= 1'),
+    ('max_iterations', 0, 'max_iterations must be an integer >= 1'),
+    ('min_path_point_time', -1.0, 'min_path_point_time must be >= 0, got -1.0'),
+    ('max_path_joint_velocity', 0.0, 'max_path_joint_velocity must be > 0, got 0.0'),
     ('nominal_pose', [0.0, 0.0, 0.0], 'nominal_pose needs 4 finite values, got [0.0, 0.0, 0.0]'),
     ('nominal_pose', [0.0, 0.0, float('nan'), 0.0], 'nominal_pose needs 4 finite values'),
 ])
@@ -30,7 +33,7 @@ def test_bad_parameters_are_named(name, value, error):
 @pytest.mark.parametrize('name, value', [('orientation_mode', 'strict'), ('method', 'dls'),
                                          ('tol_position', 1e-4), ('max_iterations', 3),
                                          ('nominal_pose', [0.0, 0.1, 0.2, 0.3]),
-                                         ('min_path_point_time', -1.0)])
+                                         ('min_path_point_time', 0.0)])
 def test_good_parameters_pass(name, value):
     assert ik.parameter_error(name, value, 4) is None
 

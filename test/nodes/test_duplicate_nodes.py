@@ -37,6 +37,33 @@ def test_two_bringups_in_one_namespace_are_named(node_process):
         a.output()[-2000:] + b.output()[-2000:]
 
 
+def test_peers_are_looked_for_in_the_node_namespace(rclpy_context):
+    """robot_name differs from the namespace: duplicates are found where the topics are."""
+    from px100_control.ros.sim_driver_node import SimDriverNode
+    from px100_control.ros.trajectory_server_node import TrajectoryServerNode
+    from rclpy.parameter import Parameter
+    ns = f'/dup_ns_{os.getpid()}'
+    kwargs = {'context': rclpy_context, 'namespace': ns,
+              'parameter_overrides': [Parameter('robot_name', value='elsewhere')]}
+    nodes = []
+    try:
+        for cls in (SimDriverNode, SimDriverNode, TrajectoryServerNode, TrajectoryServerNode):
+            nodes.append(cls(**kwargs))
+
+        def named():
+            for node in nodes:
+                node._check_peers()
+            return all(node._duplicates for node in nodes)
+        assert _wait(named, 20.0), [n._duplicates for n in nodes]
+        assert nodes[0]._duplicates.startswith(
+            f"2 drivers publish joint_states under '{ns}': {ns}/sim_driver (x2, same name)")
+        assert nodes[2]._duplicates.startswith(
+            f"2 trajectory servers take trajectory/goal under '{ns}': {ns}/trajectory_server")
+    finally:
+        for node in nodes:
+            node.destroy_node()
+
+
 def test_in_process_bringup_beside_a_running_one_is_refused(node_process):
     """bringup=True where nodes already run: InterbotixException naming both drivers."""
     from px100_control.client import (InterbotixException, InterbotixManipulatorXS,

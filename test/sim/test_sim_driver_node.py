@@ -228,10 +228,13 @@ def test_parameters_are_validated_live(spin_node, rclpy_context):
     assert driver.sim.gains('shoulder').p == 30.0
     assert set_param('gains.elbow.i', 100).successful       # an int is taken as a number
     assert driver.sim.gains('elbow').i == 100.0
-    for name, value, words in [('gains.shoulder.p', -1.0, 'negative'),
-                               ('gains.shoulder.d', float('nan'), 'NaN'),
+    # below 0 (NaN, -inf too): the declared range (parameters.SIM_DRIVER's gains group)
+    for name, value, words in [('gains.shoulder.p', -1.0,
+                                'gains.shoulder.p out of range Min: 0.0, Max: inf'),
+                               ('gains.shoulder.d', float('nan'), 'gains.shoulder.d out of range'),
+                               ('gains.elbow.i', -3, 'gains.elbow.i out of range. Min: 0'),
                                ('gains.elbow.i_clamp', float('inf'), 'finite'),
-                               ('gains.elbow.u_clamp', float('-inf'), 'finite'),
+                               ('gains.elbow.u_clamp', float('-inf'), 'gains.elbow.u_clamp out of'),
                                ('gains.wrist_angle.p', 'stiff', 'number'),
                                ('gains.waist.d', 50.0, 'unstable'),
                                ('object_width', 0.2, 'wider'),

@@ -111,7 +111,7 @@ def test_other_host_is_read_only_unless_asked(rclpy_context):
             assert (node.scene.gizmo is None) is expected
         finally:
             node.destroy_node()
-    # refused by the declared range (parameter_schema.VIEWER), naming the parameter
+    # refused by the declared range (parameters.VIEWER), naming the parameter
     with pytest.raises(Exception, match='rate out of range Min: 1.0, Max: 60.0'):
         ViewerNode(context=rclpy_context, parameter_overrides=[
             Parameter('rate', value=500.0), Parameter('port', value=PORT_BASE + 9)])
