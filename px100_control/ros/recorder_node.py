@@ -31,7 +31,7 @@ to other topics as they appear. It is *ready* once every selected topic that has
 subscribed and matched with all its publishers (or after ``ready_timeout``, with a warning
 naming the unmatched ones); it then publishes the bag directory on ``recorder/ready``
 (std_msgs/String, transient local, under ``/<robot_name>/``), where the client waits for it
-(``InterbotixManipulatorXS(..., recorder=True)`` or a Recorder instance), and logs ``ready``.
+(:mod:`px100_control.client.recorder_wait`), and logs ``ready``.
 ``with Recorder(dir):`` enters only when its recorder is ready.
 
 The Python API (``Recorder``, ``record_in_process``) is in :mod:`px100_control.ros.recorder`.
@@ -67,9 +67,9 @@ DRAIN_LIMIT = 200
 _ACTIVE = weakref.WeakSet()
 
 
-def active_bag_dirs() -> List[str]:
-    """Return the bag directories of the RecorderNodes of this process still recording."""
-    return sorted(n.output for n in list(_ACTIVE) if not n.closed.is_set())
+def active_recorders() -> List['RecorderNode']:
+    """Return the RecorderNodes of this process still recording (the client waits for them)."""
+    return [n for n in list(_ACTIVE) if not n.closed.is_set()]
 
 
 class RecorderNode(Node):
@@ -167,6 +167,10 @@ class RecorderNode(Node):
 
     def _selected(self, topic: str) -> bool:
         return self.selection.selected(topic, self.tf.enabled)
+
+    def records(self, topic: str) -> bool:
+        """Return True if ``topic`` (absolute name) is one this recorder records."""
+        return self._selected(topic)
 
     def _check_ready(self) -> None:
         """Announce readiness once subscribed and matched (see the module docstring)."""
