@@ -3,8 +3,10 @@ Recordings lose nothing: every goal, IK request and setpoint of a script is in i
 
 A client script (recording_script.py) runs repeatedly against a bringup in its own namespace,
 recorded (a) by ``record -a`` started just before it and (b) by ``with Recorder(dir)`` inside
-it. Each run's bag must hold every stamp the script published. 3 runs per way by default,
-20 with PX100_STRESS=full.
+it; each way with the client told about the recorder (env PX100_RECORDER=wait, recorder=rec)
+and with the script unchanged (the client finds the recorder itself). Each run's bag must hold
+every stamp the script published. Runs per way: env PX100_RECORD_RUNS, else 20 with
+PX100_STRESS=full, else 3.
 """
 import json
 import os
@@ -19,7 +21,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-RUNS = 20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 3
+RUNS = int(os.environ.get('PX100_RECORD_RUNS', '0') or 0) or (
+    20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 3)
 TOPICS = ('trajectory/goal', 'ik/request', 'commands/joint_setpoints')
 
 
@@ -54,27 +57,34 @@ def _run_script(ns, *args, env=None):
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-@pytest.mark.parametrize('way', ['record_process', 'recorder_context'])
+@pytest.mark.parametrize('way', ['record_process', 'recorder_context',
+                                 'record_process_unchanged', 'recorder_context_unchanged'])
 def test_every_command_of_the_script_is_in_the_bag(node_process, tmp_path, way):
     """RUNS runs: each bag holds all goals, IK requests and setpoints the script sent."""
-    ns = f'px100_rec_{os.getpid()}_{way.split("_")[1]}'
+    ns = f'px100_rec_{os.getpid()}_{way.split("_")[1]}{int(way.endswith("unchanged"))}'
     node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
     complete, failures = 0, []
+    t0 = time.monotonic()
     for i in range(RUNS):
         bag = str(tmp_path / f'run{i}')
-        if way == 'record_process':
+        if way.startswith('record_process'):
             rec = node_process('record', '-a', '-o', bag, '--ros-args', '-p',
                                f'robot_name:={ns}')
-            sent = _run_script(ns, env=_env(PX100_RECORDER='wait'))
+            env = _env(PX100_RECORDER='wait')
+            if way.endswith('unchanged'):
+                del env['PX100_RECORDER']  # the script and its environment as a user's
+            sent = _run_script(ns, env=env)
             time.sleep(0.3)  # the last status / setpoint echoes reach the recorder
             assert rec.stop() == 0, rec.output[-2000:]
         else:
-            sent = _run_script(ns, bag)
+            sent = _run_script(ns, bag, *(['unchanged'] if way.endswith('unchanged') else []))
         assert all(sent[t] for t in TOPICS), sent
         missing = _missing(sent, bag, ns)
         if missing:
             failures.append((i, missing))
         else:
             complete += 1
-    print(f'{way}: {complete} of {RUNS} bags complete')
+    counts = {t: len(sent[t]) for t in TOPICS}
+    print(f'{way}: {complete} of {RUNS} bags complete (last run sent {counts}; '
+          f'{time.monotonic() - t0:.0f} s)')
     assert complete == RUNS, failures
