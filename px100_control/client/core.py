@@ -376,7 +376,7 @@ class InterbotixRobotXSCore:
     def _recorder_cb(self, msg: String) -> None:
         if msg.data and msg.data not in self.bag_paths:
             self.bag_paths.append(msg.data)
-            if self._recorders_checked:
+            if self._recorders_checked and msg.data not in local_bag_dirs():
                 self.get_node().logwarn(
                     f'A recorder ({msg.data}) got ready after this script started: the start '
                     'of the run may be missing from its bag (start the recorder earlier, or '

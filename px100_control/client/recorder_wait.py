@@ -6,9 +6,10 @@ Which recorders (the ``recorder`` argument of
 
 - None (default): every recorder found when the robot is constructed, with no change to the
   script: the Recorders running in this process (``with Recorder(dir):`` around the script)
-  and the nodes named ``recorder`` in the graph (``record -a`` started before the script,
-  looked for until the client is :func:`discovery_grace` s old), each for at most
-  :data:`AUTO_WAIT` s;
+  and the other recorders of this machine's domain that record this robot
+  (:mod:`px100_control.ros.recorder_registry`: ``record -a`` started before the script, even
+  when DDS discovery has not found it yet) or are nodes named ``recorder`` in the graph (looked
+  for until the client is :func:`discovery_grace` s old), each for at most :data:`AUTO_WAIT` s;
 - a :class:`~px100_control.ros.recorder.Recorder`: that one, up to connect_timeout;
 - True (or env ``PX100_RECORDER=wait``): also a recorder that is still starting: up to
   connect_timeout for an announcement on ``recorder/ready``;
@@ -30,6 +31,7 @@ import threading
 import time
 from typing import Dict, List
 
+from px100_control.ros import recorder_registry
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
@@ -136,7 +138,9 @@ class RecorderWait:
         end = self.core._started_at + (discovery_grace() if grace else 0.0)
         while True:
             local = [r for r in local_recorders() if self._records_us(r)]
-            remote = graph_recorders(self.node, local_recorders())
+            remote = sorted(set(graph_recorders(self.node, local_recorders())) | {
+                e['namespace'] for e in recorder_registry.running(os.getpid())
+                if any(recorder_registry.records(e, p.topic_name) for p in self.pubs)})
             if local or remote or time.monotonic() >= end:
                 return local, remote
             time.sleep(0.05)
@@ -156,6 +160,7 @@ class RecorderWait:
                     return self._warn(f'the recorder writing {rec.output} did not match '
                                       f'{pub.topic_name}')
                 time.sleep(0.005)
+        self.node.loginfo(f'Recorder ready and matched: recording to {rec.output}')
         return True
 
     def _local_matched(self, rec, pub) -> bool:
@@ -175,9 +180,11 @@ class RecorderWait:
         """Wait for the recorder in namespace ``ns`` to announce ready, then match it."""
         topic = f"{ns.rstrip('/')}/recorder/ready"
         event = threading.Event()
+        paths = []
 
         def on_ready(msg: String) -> None:
             self._note_bag(msg.data)
+            paths.append(msg.data)
             event.set()
 
         sub = self.node.create_subscription(String, topic, on_ready, _LATCHED,
@@ -199,6 +206,7 @@ class RecorderWait:
                 time.sleep(0.01)
             self.core._await_matched(pub, max(0.0, end - time.monotonic()))
         time.sleep(0.05)  # the recorder's side of the match trails ours by a moment
+        self.node.loginfo(f"Recorder ready and matched: recording to {', '.join(paths)}")
         return True
 
     # -- helpers --------------------------------------------------------------------------

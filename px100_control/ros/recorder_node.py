@@ -32,7 +32,9 @@ subscribed and matched with all its publishers (or after ``ready_timeout``, with
 naming the unmatched ones); it then publishes the bag directory on ``recorder/ready``
 (std_msgs/String, transient local, under ``/<robot_name>/``), where the client waits for it
 (:mod:`px100_control.client.recorder_wait`), and logs ``ready``.
-``with Recorder(dir):`` enters only when its recorder is ready.
+``with Recorder(dir):`` enters only when its recorder is ready. A recorder also lists itself
+in :mod:`px100_control.ros.recorder_registry` while it records, so a client started just after
+it knows it is coming before DDS discovery has found it.
 
 The Python API (``Recorder``, ``record_in_process``) is in :mod:`px100_control.ros.recorder`.
 Times in the bag are the reception times (ns since the epoch).
@@ -51,6 +53,7 @@ from px100_control.bag.tool_options import add_record_arguments
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
+from px100_control.ros import recorder_registry
 from px100_control.ros.bag_qos import SUBSCRIPTION_DEPTH
 from px100_control.ros.bag_tool import run_bag_tool
 from px100_control.ros.common import (LATCHED_QOS, parameter_descriptor, parse_cli,
@@ -152,6 +155,9 @@ class RecorderNode(Node):
     def _start(self, duration, rescan_period: float, flush_period: float) -> None:
         self.started_at = time.monotonic()
         _ACTIVE.add(self)
+        sel = self.selection  # announced at once: discovery by DDS can take seconds
+        self._entry = recorder_registry.register(self.namespace, sel.all_topics, sel.all_topics
+                                                 and not sel.robot_only, sel.wanted, self.output)
         self.topics.subscribe_contract(self.selection.contract_topics())
         self.tf.start_loading()
         self._scan_timer = self.create_timer(rescan_period, self.scan_graph)
@@ -268,6 +274,7 @@ class RecorderNode(Node):
                 self.closed.wait(10.0)
                 return self.metadata_path
             self._closing = True
+        recorder_registry.unregister(getattr(self, '_entry', ''))
         try:
             if self._drain_on_close:
                 self._drain_queues()

@@ -50,11 +50,19 @@ def _missing(sent: dict, bag_dir: str, ns: str) -> dict:
 
 
 def _run_script(ns, *args, env=None):
+    """Run recording_script.py; return (stamps sent per topic, its log lines about recorders)."""
     proc = subprocess.run([sys.executable, os.path.join(HERE, 'recording_script.py'), ns,
                            *args], env=env or _env(), capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    notes = [x for x in proc.stderr.splitlines()
+             if 'ecorder' in x or 'Initialized InterbotixRobotXSCore' in x]
+    return json.loads(proc.stdout.strip().splitlines()[-1]), notes
+
+
+def _recorder_notes(output: str) -> list:
+    """Return the record process's start and ready lines (their stamps say when)."""
+    return [x for x in output.splitlines() if 'recording to' in x or 'ready:' in x]
 
 
 @pytest.mark.parametrize('way', ['record_process', 'recorder_context',
@@ -73,18 +81,22 @@ def test_every_command_of_the_script_is_in_the_bag(node_process, tmp_path, way):
             env = _env(PX100_RECORDER='wait')
             if way.endswith('unchanged'):
                 del env['PX100_RECORDER']  # the script and its environment as a user's
-            sent = _run_script(ns, env=env)
+            sent, notes = _run_script(ns, env=env)
             time.sleep(0.3)  # the last status / setpoint echoes reach the recorder
-            assert rec.stop() == 0, rec.output[-2000:]
+            assert rec.stop(timeout=30.0) == 0, rec.output()[-2000:]
+            notes += _recorder_notes(rec.output())
         else:
-            sent = _run_script(ns, bag, *(['unchanged'] if way.endswith('unchanged') else []))
+            sent, notes = _run_script(ns, bag,
+                                      *(['unchanged'] if way.endswith('unchanged') else []))
         assert all(sent[t] for t in TOPICS), sent
         missing = _missing(sent, bag, ns)
         if missing:
-            failures.append((i, missing))
+            failures.append((i, missing, notes))
         else:
             complete += 1
     counts = {t: len(sent[t]) for t in TOPICS}
     print(f'{way}: {complete} of {RUNS} bags complete (last run sent {counts}; '
           f'{time.monotonic() - t0:.0f} s)')
+    for failure in failures:
+        print('incomplete run:', *failure, sep='\n  ')
     assert complete == RUNS, failures
