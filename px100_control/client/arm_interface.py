@@ -44,7 +44,7 @@ from typing import Any, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from px100_control.client.core import InterbotixRobotXSCore
+from px100_control.client.core import feasible_duration, InterbotixRobotXSCore, MIN_MOVE_TIME
 from px100_control.client.robot import InterbotixException
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.cartesian import CartesianPathError, plan_ee_waypoints
@@ -57,8 +57,6 @@ SETTLE_ALLOWANCE = 2.0
 #: IK acceptance tolerances of Interbotix (modern_robotics eomg, ev): [rad], [m]
 EOMG = 1e-3
 EV = 1e-3
-#: shortest move sent for moving_time 0 (the servos' "no profile") [s]
-MIN_MOVE_TIME = 0.1
 
 
 class MrDescription:
@@ -326,16 +324,8 @@ class InterbotixArmXSInterface:
         d = np.abs(q - np.asarray(self.joint_commands, dtype=float))
         if self.core.joint_state_age() < self.core.stale_timeout:
             d = np.maximum(d, np.abs(q - np.asarray(self.get_joint_positions())))
-        ratio = float(np.max(d / np.asarray(self.group_info.joint_velocity_limits)))
-        cruise = moving_time - min(accel_time, moving_time / 2.0)
-        if ratio <= cruise and moving_time > 0.0:
-            return moving_time
-        at = min(accel_time, MIN_MOVE_TIME / 2.0) if moving_time <= 0.0 else accel_time
-        if moving_time <= 0.0:
-            t_min = ratio + at if ratio >= at else 2.0 * ratio
-            return max(MIN_MOVE_TIME, 1.02 * t_min)
-        t_min = ratio + at if ratio >= at else 2.0 * ratio
-        return max(moving_time, 1.02 * t_min)
+        return feasible_duration(d, self.group_info.joint_velocity_limits, moving_time,
+                                 accel_time)
 
     def _execute(self, names, points, times, accel_time, blocking, duration) -> bool:
         for check in list(self.core._before_arm_move):

@@ -44,6 +44,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
 from px100_control.client.inprocess import InProcessBringup, ProcessBringup
+from px100_control.client.recorder_wait import local_bag_dirs, RecorderWait
 import px100_control.client.robot as _robot
 from px100_control.client.robot import InterbotixException
 from px100_control.control.gripper import effort_to_pwm as _effort_to_pwm
@@ -94,6 +95,12 @@ STALL_TORQUE = 1.4
 STALL_CURRENT_MA = 1300.0
 TORQUE_PER_AMP = STALL_TORQUE / (STALL_CURRENT_MA / 1000.0)
 PWM_LIMIT = 885.0
+#: a finger this close to a limit [m] counts as there (the simulated linkage stops at it)
+FINGER_TOLERANCE = 2e-4
+#: below this horn speed [rad/s] closing fingers are taken as stopped (on an object)
+STOPPED_SPEED = 0.05
+#: [s] a gripper driven for less than this may still be spinning up (not yet on an object)
+GRIP_SETTLE = 0.3
 
 
 def pwm_to_effort(pwm: float) -> float:
@@ -106,11 +113,29 @@ def effort_to_pwm(effort: float) -> float:
     return _effort_to_pwm(float(effort), STALL_TORQUE, PWM_LIMIT)
 
 
-def _active_recorder_dirs() -> List[str]:
-    """Return the bag directories of the Recorders running in this process."""
-    import sys
-    module = sys.modules.get('px100_control.ros.recorder_node')
-    return list(module.active_bag_dirs()) if module is not None else []
+#: shortest move sent for a Profile_Velocity / moving_time of 0 (the servos' "no profile") [s]
+MIN_MOVE_TIME = 0.1
+
+
+def feasible_duration(distances, velocity_limits, moving_time: float,
+                      accel_time: float) -> float:
+    """
+    Return moving_time [s], or the shortest duration whose trapezoid peak respects the limits.
+
+    :param distances: (n,) joint travel [rad]; :param velocity_limits: (n,) [rad/s]
+    :param moving_time: the wanted duration [s]; 0 = no profile (as fast as the limits allow,
+        at least MIN_MOVE_TIME); :param accel_time: ramp time [s]
+    A servo with a time profile too short for its Velocity_Limit caps the speed the same way;
+    trajectory_server refuses a too-fast goal, so such a move is stretched instead.
+    """
+    d = np.abs(np.asarray(distances, dtype=float))
+    ratio = float(np.max(d / np.asarray(velocity_limits, dtype=float))) if d.size else 0.0
+    cruise = moving_time - min(accel_time, moving_time / 2.0)
+    if ratio <= cruise and moving_time > 0.0:
+        return moving_time
+    at = min(accel_time, MIN_MOVE_TIME / 2.0) if moving_time <= 0.0 else accel_time
+    t_min = ratio + at if ratio >= at else 2.0 * ratio
+    return max(MIN_MOVE_TIME if moving_time <= 0.0 else moving_time, 1.02 * t_min)
 
 
 def env_float(name: str, default: float) -> float:
@@ -195,11 +220,11 @@ class InterbotixRobotXSCore:
     :param init_node: ROS 1 argument, accepted and unused (the global node always exists)
     :param joint_state_topic: ROS 1 / standalone-gripper name of topic_joint_states
     :param node_kwargs: extra keyword arguments for the in-process nodes
-    :param recorder: wait before the first command until a recorder records everything: a
-        :class:`px100_control.ros.recorder.Recorder` (waits until it is ready), True (waits
-        up to connect_timeout for any recorder of this namespace to announce ``recorder/ready``;
-        env ``PX100_RECORDER=wait``), None (default: waits only for a recorder already visible
-        in the graph), False (never waits)
+    :param recorder: wait before the first command until the recorders record everything
+        (:mod:`px100_control.client.recorder_wait`): None (default) the recorders found at
+        startup (in this process or in the graph), a
+        :class:`px100_control.ros.recorder.Recorder` that one, True also one still starting
+        (env ``PX100_RECORDER=wait``), False none
     """
 
     def __init__(self, robot_model: str, robot_name: Optional[str] = None,
@@ -231,6 +256,7 @@ class InterbotixRobotXSCore:
         #: joint_states older than this [s] (wall) mean the driver stopped (trajectory_server
         #: itself aborts a running goal after its state_timeout, 1 s by default)
         self.stale_timeout = env_float('PX100_STALE_TIMEOUT', 3.0)
+        self._started_at = time.monotonic()
         self._torn_down = False
         self.js_mutex = threading.Lock()
         self.joint_states: Optional[JointState] = None
@@ -247,11 +273,13 @@ class InterbotixRobotXSCore:
         self._param_clients: Dict[str, object] = {}
         self._registers: Dict[str, Dict[str, int]] = {}
         self._modes: Dict[str, Tuple[str, str]] = {}
+        #: True once the recorders of the startup were waited for (see recorder_wait)
+        self._recorders_checked = False
         #: bag directories announced on recorder/ready (and of a Recorder given to us)
         self.bag_paths: List[str] = []
-        self._recorder_event = threading.Event()
-        #: called on Ctrl-C after the goals are canceled (e.g. the gripper stops its drive)
-        self._interrupt_hooks: List = []
+        #: the last pwm / current command sent to the gripper, and when (time.monotonic)
+        self._gripper_effort = 0.0
+        self._gripper_effort_at = 0.0
         #: called before an arm move; each returns a warning or None (the gripper's timing)
         self._before_arm_move: List = []
         for j in self.model.joint_names:
@@ -348,57 +376,35 @@ class InterbotixRobotXSCore:
     def _recorder_cb(self, msg: String) -> None:
         if msg.data and msg.data not in self.bag_paths:
             self.bag_paths.append(msg.data)
-        self._recorder_event.set()
+            if self._recorders_checked and msg.data not in local_bag_dirs():
+                self.get_node().logwarn(
+                    f'A recorder ({msg.data}) got ready after this script started: the start '
+                    'of the run may be missing from its bag (start the recorder earlier, or '
+                    'set PX100_RECORDER=wait).')
 
     def wait_for_recorder(self, recorder=None, timeout: Optional[float] = None) -> bool:
         """
-        Wait until a recorder records everything this client sends (see ``recorder``).
+        Wait until the recorders record everything this client sends.
 
-        :return: True when a recorder is ready (or none was asked for nor seen)
+        Which recorders: see ``recorder`` and :mod:`px100_control.client.recorder_wait`.
+        :param timeout: [s] for a Recorder given or recorder=True (default connect_timeout)
+        :return: False when a recorder was not ready and matched in time (a warning says so)
         """
-        if recorder is None and os.environ.get('PX100_RECORDER', '').lower() in ('wait', '1'):
-            recorder = True
-        if recorder is False:
-            return True
         timeout = self.connect_timeout if timeout is None else float(timeout)
-        if recorder is not None and recorder is not True:
-            ok = recorder.wait_ready(timeout)
-            path = getattr(recorder, 'output_dir', '')
-            if path and path not in self.bag_paths:
-                self.bag_paths.append(path)
-        elif recorder is True or self.robot_node.count_publishers(
-                self.topic('recorder/ready')) > 0 or any(
-                i.node_name == 'recorder' for i in
-                self.robot_node.get_subscriptions_info_by_topic(self.topic('trajectory/goal'))):
-            ok = self._recorder_event.wait(timeout if recorder is True else min(timeout, 5.0))
-        else:
-            return True
-        if not ok:
-            self.get_node().logwarn(
-                f'No recorder announced ready on {self.topic("recorder/ready")} within '
-                f'{timeout:.1f} s: the start of this run may be missing from the bag.')
-            return False
         pubs = [self.pub_goal, self.pub_ik, self.pub_setpoints, self.pub_ik_path]
-        node = getattr(recorder, 'node', None)
-        if node is not None:  # a Recorder of this process: the topics it subscribes
-            pubs = [p for p in pubs if p.topic_name in getattr(node, '_subs', {})]
-        # the recorder is subscribed; now this client must see (discover) and match it, or the
-        # first messages go out before the recorder is among their readers
-        end = time.monotonic() + (timeout if node is not None else min(timeout, 3.0))
-        for pub in pubs:
-            while time.monotonic() < end and not any(
-                    i.node_name == 'recorder' for i in
-                    self.robot_node.get_subscriptions_info_by_topic(pub.topic_name)):
-                time.sleep(0.01)
-            self._await_matched(pub, max(0.0, end - time.monotonic()))
-        return True
+        ok = RecorderWait(self, pubs).run(recorder, timeout)
+        self._recorders_checked = recorder is not False
+        return ok
 
     def interrupt(self, settle: float = 0.5) -> str:
         """
         Ctrl-C: cancel this client's unfinished goals and stop driven joints; return a report.
 
-        trajectory_server decelerates a canceled goal to rest where the arm is; the report (one
-        line) names the canceled goals, where the arm holds [rad] and the bag directory.
+        trajectory_server decelerates a canceled goal to rest where the arm is; joints in
+        velocity / current / pwm mode are put back in position mode (they hold); a gripper
+        driven in pwm / current mode stops unless it squeezes an object (_interrupt_gripper).
+        The report (one line) names the canceled goals, where the arm holds [rad], what the
+        gripper does and the bag directory.
         """
         with self._pending_lock:
             running = [p for p in self._goals.values() if p.status not in TERMINAL]
@@ -408,11 +414,7 @@ class InterbotixRobotXSCore:
             node = self._peer_node('commands/joint_setpoints', 'sim_driver')
             if node is not None:
                 self.set_remote_parameters(node, {f'operating_mode.{j}': '' for j in moded}, 0.5)
-        for hook in list(self._interrupt_hooks):
-            try:
-                hook()
-            except Exception:  # noqa: B902 - the other hooks still run
-                pass
+        grip = self._interrupt_gripper()
         end = time.monotonic() + settle
         while any(p.status not in TERMINAL for p in canceled) and time.monotonic() < end:
             time.sleep(0.01)
@@ -425,9 +427,35 @@ class InterbotixRobotXSCore:
                 f'{j}={v:.3f}' for j, v in zip(self.model.joint_names, q)) + ' rad'
         except Exception:  # noqa: B902 - no joint states: say so
             where = ', joint states unknown'
-        bags = self.bag_paths or _active_recorder_dirs()
+        bags = self.bag_paths or local_bag_dirs()
         bag = ('bag: ' + ', '.join(bags)) if bags else 'no bag recorded'
-        return f'{name} {what}{where}; {bag}'
+        return f'{name} {what}{where}{grip}; {bag}'
+
+    def _interrupt_gripper(self) -> str:
+        """
+        Ctrl-C: stop a gripper driven in pwm/current mode; return what was done, in words.
+
+        Fingers still moving (or driven less than GRIP_SETTLE s ago) get effort 0 and stop
+        where they are; fingers at rest between their limits squeeze an object and keep their
+        effort, so the object is not dropped (as the real servo keeps its last Goal_PWM).
+        """
+        g = self.model.gripper
+        if g is None or self.mode_of(g.joint) not in ('pwm', 'current') or \
+                self._gripper_effort == 0.0:
+            return ''
+        try:
+            finger = float(self.joint_positions([g.fingers[0]])[0])
+            speed = abs(float(self._joint_field([g.joint], 'velocity')[0]))
+        except InterbotixException:
+            finger, speed = float('nan'), math.inf
+        between = g.finger_lower + FINGER_TOLERANCE < finger < g.finger_upper - FINGER_TOLERANCE
+        unit = 'PWM' if self.mode_of(g.joint) == 'pwm' else 'mA'
+        if between and speed < STOPPED_SPEED and \
+                time.monotonic() - self._gripper_effort_at > GRIP_SETTLE:
+            return (f', gripper keeps squeezing an object at {finger * 1000:.1f} mm '
+                    f'({self._gripper_effort:g} {unit})')
+        self.robot_write_joint_command(g.joint, 0.0)
+        return f', gripper stopped at {finger * 1000:.1f} mm (effort 0)'
 
     def _missing_peers(self) -> List[str]:
         """Return what is still missing, in words (empty when everything is there)."""
@@ -670,8 +698,12 @@ class InterbotixRobotXSCore:
         :param times: (k,) strictly increasing time_from_start [s]; one point = move there
         :param accel_time: [s] trapezoid ramp time for a one-point goal (None: server default)
         :raises InterbotixException: no trajectory_server is listening; a joint is not in a
-            position mode (its positions would be executed as something else)
+            position mode (its positions would be executed as something else) or its mode was
+            refused
         """
+        refused = self.refused_mode_problem(joint_names)
+        if refused:
+            raise InterbotixException(refused)
         moded = [f"'{n}' ({self.mode_of(n)})" for n in joint_names
                  if n in self._modes and self.mode_of(n) not in POSITION_MODES]
         if moded:
@@ -1015,17 +1047,21 @@ class InterbotixRobotXSCore:
         control through the servo model (:data:`TORQUE_PER_AMP`); 'pwm': commands in PWM units
         (+-885 = full duty). sim_driver switches the joints (parameter
         ``operating_mode.<joint>``) and they hold. Any other mode is refused with the reason and
-        nothing changes. With profile_type 'time', profile_velocity / profile_acceleration [ms]
+        its commands are refused with that reason until a supported mode is set (as xs_sdk
+        does for a group: it then refuses the group's commands). With profile_type 'time',
+        profile_velocity / profile_acceleration [ms]
         set the Profile_Velocity / Profile_Acceleration registers.
         :return: True when applied (Interbotix returns None)
         """
         names = self._names_of(cmd_type, name)
         if mode not in DRIVER_MODES:
+            for j in names:  # as xs_sdk's group: commands are refused until a valid mode
+                self._modes[j] = (str(mode), profile_type)
             self.get_node().logerror(
                 f"Operating mode '{mode}' is not emulated (supported: "
-                f"{', '.join(DRIVER_MODES)}); {cmd_type} '{name}' keeps "
-                f"'{self._modes[names[0]][0]}' and its commands are not executed as "
-                'anything else.')
+                f"{', '.join(DRIVER_MODES)}): refused. Commands to {cmd_type} '{name}' are "
+                'refused (never executed as positions or anything else) until a supported '
+                'mode is set; the motors hold in their present control meanwhile.')
             return False
         g = self.model.gripper
         values = {}
@@ -1064,6 +1100,15 @@ class InterbotixRobotXSCore:
     def mode_of(self, joint: str) -> str:
         """Return the Interbotix operating mode of a joint ('position', 'current', ...)."""
         return self._modes[joint][0]
+
+    def refused_mode_problem(self, names: Sequence[str]) -> Optional[str]:
+        """Return why commands to ``names`` are refused (a refused operating mode), or None."""
+        bad = [j for j in names if j in self._modes and self.mode_of(j) not in DRIVER_MODES]
+        if not bad:
+            return None
+        return (f"operating mode '{self.mode_of(bad[0])}' of {', '.join(bad)} was refused "
+                '(not emulated): commands are not executed until a supported mode is set '
+                "(e.g. robot_set_operating_modes('group', 'arm', 'position'))")
 
     def _effort_commands(self, names: Sequence[str], commands: Sequence[float]) -> None:
         """
@@ -1225,7 +1270,7 @@ class InterbotixRobotXSCore:
                 f"'{group_name}' ({len(names)}). Will not execute.")
             return
         bad = next((f'command {i} ({names[i]}) is {c}' for i, c in enumerate(cmds)
-                    if not math.isfinite(c)), None)
+                    if not math.isfinite(c)), None) or self.refused_mode_problem(names)
         if bad:
             self.get_node().logerror(f'{bad}. Will not execute.')
             return
@@ -1243,14 +1288,57 @@ class InterbotixRobotXSCore:
         if g is not None and g.joint in names:
             self.robot_write_joint_command(g.joint, cmds[names.index(g.joint)])
         if arm:
-            mt, at = self._profile_times(arm[0][0])
-            self.send_trajectory([n for n, _ in arm], [[c for _, c in arm]], [mt], at)
+            self._write_positions([n for n, _ in arm], [c for _, c in arm])
 
     def _profile_times(self, joint: str) -> Tuple[float, float]:
+        """Return the (moving_time, accel_time) [s] of a joint's time-profile registers."""
         regs = self._registers[joint]
-        mt = max(regs.get('Profile_Velocity', 2000), 1) / 1000.0
-        at = regs.get('Profile_Acceleration', 300) / 1000.0
+        mt = max(regs.get('Profile_Velocity', 2000), 0) / 1000.0
+        at = max(regs.get('Profile_Acceleration', 300), 0) / 1000.0
         return mt, min(at, mt / 2)
+
+    def _write_positions(self, names: List[str], positions: List[float]) -> bool:
+        """
+        Move arm joints to positions [rad] in their Profile_Velocity time (non-blocking).
+
+        A profile too short for the joints' velocity limits (0 = no profile) is stretched to
+        the shortest feasible move, as the servos cap their speed; positions outside the
+        joint limits are refused. Every refusal is logged; returns True when the goal was sent.
+        """
+        for j, c in zip(names, positions):
+            i = self.model.joint_index(j)
+            if not float(self.model.lower[i]) - 1e-9 <= c <= float(self.model.upper[i]) + 1e-9:
+                self.get_node().logerror(
+                    f"position {c:.4f} rad for '{j}' is outside its limits "
+                    f'[{float(self.model.lower[i]):.4f}, {float(self.model.upper[i]):.4f}]. '
+                    'Will not execute.')
+                return False
+        mt, at = self._profile_times(names[0])
+        if mt <= 0.0:
+            at = MIN_MOVE_TIME / 2.0  # no profile: short ramps at the velocity limits
+        idx = [self.model.joint_index(j) for j in names]
+        vmax = np.asarray(self.model.velocity_limits, dtype=float)[idx]
+        try:
+            here = self.joint_positions(names)
+            # a move that starts while the arm moves blends the present velocity in, which
+            # raises the peak by up to a third of it (trajectory_server's plan_move)
+            vmax = np.maximum(0.25 * vmax, vmax - np.abs(self._joint_field(names, 'velocity'))
+                              / 2.5)
+        except InterbotixException:
+            here = np.asarray(positions, dtype=float)
+        duration = feasible_duration(np.asarray(positions) - here, vmax, mt, at)
+        if mt > 0.0 and duration > mt + 1e-9:
+            self.get_node().logwarn(
+                f'A {mt:.2f} s move (Profile_Velocity {int(mt * 1000)} ms) of '
+                f"{', '.join(names)} exceeds the joint velocity limits: it takes "
+                f'{duration:.2f} s (the servos would cap the speed the same way).')
+        at = min(at, duration / 2.0)
+        try:
+            self.send_trajectory(names, [positions], [duration], at)
+        except InterbotixException as exc:
+            self.get_node().logerror(f'{exc}. Will not execute.')
+            return False
+        return True
 
     def robot_write_joint_command(self, joint_name: str, command: float) -> None:
         """
@@ -1262,26 +1350,30 @@ class InterbotixRobotXSCore:
         as robot_write_commands.
         """
         names = self._names_of('single', joint_name)
-        if not math.isfinite(float(command)):
-            self.get_node().logerror(f"command for '{joint_name}' is {command}. Will not "
-                                     'execute.')
+        problem = (f"command for '{joint_name}' is {command}"
+                   if not math.isfinite(float(command)) else self.refused_mode_problem(names))
+        if problem:
+            self.get_node().logerror(f'{problem}. Will not execute.')
             return
         g = self.model.gripper
         mode = self.mode_of(names[0])
         if g is not None and names[0] == g.joint:
             if mode in POSITION_MODES:
                 self.publish_setpoints([g.joint], positions=[float(command)])
-            elif mode == 'pwm':
-                if abs(float(command)) > PWM_LIMIT:
-                    self.get_node().logerror(f'PWM {command} for the gripper is beyond the PWM '
-                                             f'limit +-{PWM_LIMIT:g}. Will not execute.')
-                    return
-                self.publish_setpoints([g.joint], efforts=[pwm_to_effort(float(command))])
-            else:
-                try:
+                return
+            try:
+                if mode == 'pwm' and abs(float(command)) > PWM_LIMIT:
+                    raise InterbotixException(f'PWM {command} for the gripper is beyond the PWM '
+                                              f'limit +-{PWM_LIMIT:g}')
+                if mode == 'pwm':
+                    self.publish_setpoints([g.joint], efforts=[pwm_to_effort(float(command))])
+                else:
                     self._effort_commands([g.joint], [float(command)])
-                except InterbotixException as exc:
-                    self.get_node().logerror(f'{exc}. Will not execute.')
+            except InterbotixException as exc:
+                self.get_node().logerror(f'{exc}. Will not execute.')
+                return
+            if mode in ('pwm', 'current'):  # for Ctrl-C (_interrupt_gripper)
+                self._gripper_effort, self._gripper_effort_at = float(command), time.monotonic()
             return
         if mode not in POSITION_MODES:
             try:
@@ -1289,8 +1381,7 @@ class InterbotixRobotXSCore:
             except InterbotixException as exc:
                 self.get_node().logerror(f'{exc}. Will not execute.')
             return
-        mt, at = self._profile_times(joint_name)
-        self.send_trajectory([joint_name], [[float(command)]], [mt], at)
+        self._write_positions([joint_name], [float(command)])
 
     def robot_write_trajectory(self, cmd_type: str, name: str, traj_type: str = None,
                                raw_traj: Sequence[dict] = None, *,
@@ -1307,6 +1398,10 @@ class InterbotixRobotXSCore:
         if traj_type is None or raw_traj is None:
             raise TypeError('robot_write_trajectory() needs traj_type (or type=) and raw_traj')
         names = self._names_of(cmd_type, name)
+        problem = self.refused_mode_problem(names)
+        if problem:
+            self.get_node().logerror(f'{problem}. Will not execute.')
+            return
         if traj_type != 'position':
             self.get_node().logerror(
                 f"traj_type '{traj_type}' is not emulated: trajectory_server executes position "
@@ -1322,7 +1417,10 @@ class InterbotixRobotXSCore:
         if not pts:
             self.get_node().logerror('Trajectory has no point after t = 0. Aborting...')
             return
-        self.send_trajectory(names, pts, times)
+        try:
+            self.send_trajectory(names, pts, times)
+        except InterbotixException as exc:
+            self.get_node().logerror(f'{exc}. Will not execute.')
 
     def robot_get_joint_states(self) -> JointState:
         """Return a copy of the latest JointState (position, velocity, effort of every joint)."""

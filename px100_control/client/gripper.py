@@ -19,26 +19,26 @@ PWM_Limit 885 = 100 % duty; the simulated servo (:mod:`px100_control.control.act
 them. With the linear torque-speed curve a free horn turns at ``duty * 6.0`` rad/s, so the
 fingers need at least ``travel / (pwm / 885 * 6.0)`` to close or open: 0.98 s over the px100's
 1.65 rad horn travel at 250 PWM (pressure 0.5), 1.63 s at 150 PWM, 0.70 s at 350 PWM, plus
-the spin-up and friction (the simulation measures about 1.4-1.9 s at 250 PWM).
+the spin-up and friction: open to closed, the simulation measures 1.86 s at 250 PWM (up to
+2.1 s on a loaded machine), 3.9 s at 150 PWM and 1.2 s at 350 PWM (simulated time,
+test_client_gripper_core.py prints them).
 :meth:`InterbotixGripperXSInterface.travel_time` gives the estimate; grasp() still returns
 after its ``delay`` as Interbotix's does, and an arm move that starts while the fingers are
 still closing on nothing logs a warning saying how long they still need.
 """
+import time
 from typing import Optional
 
-from px100_control.client.core import effort_to_pwm, InterbotixRobotXSCore, PWM_LIMIT, \
-    pwm_to_effort, STALL_TORQUE
-from px100_control.client.robot import InterbotixException, robot_shutdown
+from px100_control.client.core import effort_to_pwm, FINGER_TOLERANCE, \
+    InterbotixRobotXSCore, PWM_LIMIT, pwm_to_effort, STALL_TORQUE, STOPPED_SPEED
+from px100_control.client.robot import ensure_spinning, InterbotixException, robot_shutdown
 from px100_control.control.gripper import GripperLinkage
+from rclpy.logging import LoggingSeverity
 
 __all__ = ['InterbotixGripperXS', 'InterbotixGripperXSInterface', 'pwm_to_effort',
            'effort_to_pwm', 'PWM_LIMIT', 'STALL_TORQUE']
-#: a finger this close to a limit [m] counts as there (the simulated linkage stops at it)
-FINGER_TOLERANCE = 2e-4
 #: XL430-W250 no-load speed at 11.1 V (57 rpm) [rad/s] (ROBOTIS e-Manual)
 NO_LOAD_SPEED = 57.0 * 2.0 * 3.141592653589793 / 60.0
-#: below this horn speed [rad/s] closing fingers are taken as stopped (on an object)
-STOPPED_SPEED = 0.05
 
 
 class InterbotixGripperXSInterface:
@@ -216,34 +216,55 @@ class InterbotixGripperXS:
     """
     Standalone gripper (``interbotix_xs_modules.xs_robot.gripper.InterbotixGripperXS``).
 
-    Accepts the ROS 2 signature (``joint_state_topic``, ``logging_level``, ``node_name``) and
-    the ROS 1 one (``init_node``, 7th positional); ``.core`` (ROS 2) and ``.dxl`` (ROS 1) are the
-    core, ``.gripper`` the interface, ``shutdown()`` ends the API. ``grasp()`` closes and
-    ``release()`` opens, as in the manipulator's interface (the stale ROS 2 standalone class
-    has them swapped). px100_control keywords as for InterbotixManipulatorXS (``bringup``, ...).
+    ROS 2 (humble/jazzy) signature: ``(robot_model, gripper_name, robot_name=None,
+    gripper_pressure=0.5, gripper_pressure_lower_limit=150, gripper_pressure_upper_limit=350,
+    topic_joint_states='joint_states', logging_level=INFO, node_name='robot_manipulation',
+    start_on_init=True)`` with ``start()``, ``run()`` and ``shutdown()``; ``.core`` is the
+    core, ``.gripper`` the interface. ROS 1 (noetic): ``init_node`` is the 7th positional
+    argument and ``.dxl`` the core. The older ROS 2 keyword ``joint_state_topic`` is accepted
+    too. ``grasp()`` closes and ``release()`` opens, as in the manipulator's interface.
+
+    Differences (on purpose): the client's node spins from construction on, whatever
+    start_on_init (the constructor needs joint states); ``start()`` makes sure it spins,
+    ``run()`` blocks until ``shutdown()`` / robot_shutdown(). px100_control keywords as for
+    InterbotixManipulatorXS (``bringup``, ``connect_timeout``, ...).
     """
 
     def __init__(self, robot_model: str, gripper_name: str, robot_name: Optional[str] = None,
                  gripper_pressure: float = 0.5, gripper_pressure_lower_limit: int = 150,
                  gripper_pressure_upper_limit: int = 350,
-                 joint_state_topic: str = 'joint_states', logging_level=None,
-                 node_name: str = 'robot_manipulation', *, init_node: bool = True, **kwargs):
-        from rclpy.logging import LoggingSeverity
-        if isinstance(joint_state_topic, bool):  # ROS 1: the 7th positional is init_node
-            init_node, joint_state_topic = joint_state_topic, 'joint_states'
+                 topic_joint_states: str = 'joint_states',
+                 logging_level: LoggingSeverity = LoggingSeverity.INFO,
+                 node_name: str = 'robot_manipulation', start_on_init: bool = True, *,
+                 init_node: bool = True, joint_state_topic: Optional[str] = None, **kwargs):
+        if isinstance(topic_joint_states, bool):  # ROS 1: the 7th positional is init_node
+            init_node, topic_joint_states = topic_joint_states, 'joint_states'
+        if joint_state_topic is not None:
+            topic_joint_states = joint_state_topic
         self.init_node = init_node  # ROS 1: unused (the client's node always exists)
         self.core = InterbotixRobotXSCore(
-            robot_model, robot_name, topic_joint_states=joint_state_topic,
-            logging_level=LoggingSeverity.INFO if logging_level is None else logging_level,
-            node_name=node_name, **kwargs)
+            robot_model, robot_name, topic_joint_states=topic_joint_states,
+            logging_level=logging_level, node_name=node_name, **kwargs)
         self.gripper = InterbotixGripperXSInterface(
             self.core, gripper_name, gripper_pressure, gripper_pressure_lower_limit,
             gripper_pressure_upper_limit)
+        if start_on_init:
+            self.start()
 
     @property
     def dxl(self) -> InterbotixRobotXSCore:
         """ROS 1 name of :attr:`core`."""
         return self.core
+
+    def start(self) -> None:
+        """Make sure the client's node spins in its background thread (idempotent)."""
+        ensure_spinning(self.core.get_node())
+
+    def run(self, period: float = 0.05) -> None:
+        """Block until shutdown() / robot_shutdown() (Interbotix: the spin thread's target)."""
+        self.start()
+        while not self.core._torn_down:
+            time.sleep(period)
 
     def shutdown(self) -> None:
         """Shut the API down (robot_shutdown)."""

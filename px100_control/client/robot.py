@@ -19,7 +19,9 @@ Differences from Interbotix (documented, on purpose):
 - Ctrl-C (SIGINT) in a script: rclpy is initialised without its signal handlers (they would
   invalidate the context under the running script), and the client's handler cancels the goals
   of every robot of this process (trajectory_server decelerates them to rest where they are),
-  stops driven grippers, prints one line saying so and where the bag is, and exits with status
+  puts joints in velocity / current / pwm mode back in position mode (they hold), stops a
+  gripper whose fingers are moving (one squeezing an object keeps its grasp, so nothing is
+  dropped), prints one line saying so and where the bag is, and exits with status
   130 (SystemExit: ``with`` blocks and atexit still close bags and stop nodes) without a
   traceback. A second Ctrl-C during that exits at once.
 """

@@ -31,8 +31,10 @@ to other topics as they appear. It is *ready* once every selected topic that has
 subscribed and matched with all its publishers (or after ``ready_timeout``, with a warning
 naming the unmatched ones); it then publishes the bag directory on ``recorder/ready``
 (std_msgs/String, transient local, under ``/<robot_name>/``), where the client waits for it
-(``InterbotixManipulatorXS(..., recorder=True)`` or a Recorder instance), and logs ``ready``.
-``with Recorder(dir):`` enters only when its recorder is ready.
+(:mod:`px100_control.client.recorder_wait`), and logs ``ready``.
+``with Recorder(dir):`` enters only when its recorder is ready. A recorder also lists itself
+in :mod:`px100_control.ros.recorder_registry` while it records, so a client started just after
+it knows it is coming before DDS discovery has found it.
 
 The Python API (``Recorder``, ``record_in_process``) is in :mod:`px100_control.ros.recorder`.
 Times in the bag are the reception times (ns since the epoch).
@@ -52,6 +54,7 @@ from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
 from px100_control.parameters import COMMON, RECORDER
+from px100_control.ros import recorder_registry
 from px100_control.ros.bag_qos import SUBSCRIPTION_DEPTH
 from px100_control.ros.bag_tool import run_bag_tool
 from px100_control.ros.common import LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs
@@ -67,9 +70,9 @@ DRAIN_LIMIT = 200
 _ACTIVE = weakref.WeakSet()
 
 
-def active_bag_dirs() -> List[str]:
-    """Return the bag directories of the RecorderNodes of this process still recording."""
-    return sorted(n.output for n in list(_ACTIVE) if not n.closed.is_set())
+def active_recorders() -> List['RecorderNode']:
+    """Return the RecorderNodes of this process still recording (the client waits for them)."""
+    return [n for n in list(_ACTIVE) if not n.closed.is_set()]
 
 
 class RecorderNode(Node):
@@ -152,6 +155,9 @@ class RecorderNode(Node):
     def _start(self, duration, rescan_period: float, flush_period: float) -> None:
         self.started_at = time.monotonic()
         _ACTIVE.add(self)
+        sel = self.selection  # announced at once: discovery by DDS can take seconds
+        self._entry = recorder_registry.register(self.namespace, sel.all_topics, sel.all_topics
+                                                 and not sel.robot_only, sel.wanted, self.output)
         self.topics.subscribe_contract(self.selection.contract_topics())
         self.tf.start_loading()
         self._scan_timer = self.create_timer(rescan_period, self.scan_graph)
@@ -167,6 +173,10 @@ class RecorderNode(Node):
 
     def _selected(self, topic: str) -> bool:
         return self.selection.selected(topic, self.tf.enabled)
+
+    def records(self, topic: str) -> bool:
+        """Return True if ``topic`` (absolute name) is one this recorder records."""
+        return self._selected(topic)
 
     def _check_ready(self) -> None:
         """Announce readiness once subscribed and matched (see the module docstring)."""
@@ -264,6 +274,7 @@ class RecorderNode(Node):
                 self.closed.wait(10.0)
                 return self.metadata_path
             self._closing = True
+        recorder_registry.unregister(getattr(self, '_entry', ''))
         try:
             if self._drain_on_close:
                 self._drain_queues()

@@ -3,8 +3,10 @@ Recordings lose nothing: every goal, IK request and setpoint of a script is in i
 
 A client script (recording_script.py) runs repeatedly against a bringup in its own namespace,
 recorded (a) by ``record -a`` started just before it and (b) by ``with Recorder(dir)`` inside
-it. Each run's bag must hold every stamp the script published. 3 runs per way by default,
-20 with PX100_STRESS=full.
+it; each way with the client told about the recorder (env PX100_RECORDER=wait, recorder=rec)
+and with the script unchanged (the client finds the recorder itself). Each run's bag must hold
+every stamp the script published. Runs per way: env PX100_RECORD_RUNS, else 20 with
+PX100_STRESS=full, else 3.
 """
 import json
 import os
@@ -19,7 +21,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-RUNS = 20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 3
+RUNS = int(os.environ.get('PX100_RECORD_RUNS', '0') or 0) or (
+    20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 3)
 TOPICS = ('trajectory/goal', 'ik/request', 'commands/joint_setpoints')
 
 
@@ -47,34 +50,53 @@ def _missing(sent: dict, bag_dir: str, ns: str) -> dict:
 
 
 def _run_script(ns, *args, env=None):
+    """Run recording_script.py; return (stamps sent per topic, its log lines about recorders)."""
     proc = subprocess.run([sys.executable, os.path.join(HERE, 'recording_script.py'), ns,
                            *args], env=env or _env(), capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    notes = [x for x in proc.stderr.splitlines()
+             if 'ecorder' in x or 'Initialized InterbotixRobotXSCore' in x]
+    return json.loads(proc.stdout.strip().splitlines()[-1]), notes
 
 
-@pytest.mark.parametrize('way', ['record_process', 'recorder_context'])
+def _recorder_notes(output: str) -> list:
+    """Return the record process's start and ready lines (their stamps say when)."""
+    return [x for x in output.splitlines() if 'recording to' in x or 'ready:' in x]
+
+
+@pytest.mark.parametrize('way', ['record_process', 'recorder_context',
+                                 'record_process_unchanged', 'recorder_context_unchanged'])
 def test_every_command_of_the_script_is_in_the_bag(node_process, tmp_path, way):
     """RUNS runs: each bag holds all goals, IK requests and setpoints the script sent."""
-    ns = f'px100_rec_{os.getpid()}_{way.split("_")[1]}'
+    ns = f'px100_rec_{os.getpid()}_{way.split("_")[1]}{int(way.endswith("unchanged"))}'
     node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
     complete, failures = 0, []
+    t0 = time.monotonic()
     for i in range(RUNS):
         bag = str(tmp_path / f'run{i}')
-        if way == 'record_process':
+        if way.startswith('record_process'):
             rec = node_process('record', '-a', '-o', bag, '--ros-args', '-p',
                                f'robot_name:={ns}')
-            sent = _run_script(ns, env=_env(PX100_RECORDER='wait'))
+            env = _env(PX100_RECORDER='wait')
+            if way.endswith('unchanged'):
+                del env['PX100_RECORDER']  # the script and its environment as a user's
+            sent, notes = _run_script(ns, env=env)
             time.sleep(0.3)  # the last status / setpoint echoes reach the recorder
-            assert rec.stop() == 0, rec.output[-2000:]
+            assert rec.stop(timeout=30.0) == 0, rec.output()[-2000:]
+            notes += _recorder_notes(rec.output())
         else:
-            sent = _run_script(ns, bag)
+            sent, notes = _run_script(ns, bag,
+                                      *(['unchanged'] if way.endswith('unchanged') else []))
         assert all(sent[t] for t in TOPICS), sent
         missing = _missing(sent, bag, ns)
         if missing:
-            failures.append((i, missing))
+            failures.append((i, missing, notes))
         else:
             complete += 1
-    print(f'{way}: {complete} of {RUNS} bags complete')
+    counts = {t: len(sent[t]) for t in TOPICS}
+    print(f'{way}: {complete} of {RUNS} bags complete (last run sent {counts}; '
+          f'{time.monotonic() - t0:.0f} s)')
+    for failure in failures:
+        print('incomplete run:', *failure, sep='\n  ')
     assert complete == RUNS, failures

@@ -76,6 +76,17 @@ GRIPPER = [
     ('get_gripper_effort', [('self', REQ)]),
     ('get_finger_position', [('self', REQ)]),
 ]
+#: interbotix_xs_modules.xs_robot.gripper.InterbotixGripperXS (humble/jazzy)
+GRIPPER_XS = [
+    ('__init__', [('self', REQ), ('robot_model', REQ), ('gripper_name', REQ),
+                  ('robot_name', None), ('gripper_pressure', 0.5),
+                  ('gripper_pressure_lower_limit', 150), ('gripper_pressure_upper_limit', 350),
+                  ('topic_joint_states', 'joint_states'), ('logging_level', INFO),
+                  ('node_name', 'robot_manipulation'), ('start_on_init', True)]),
+    ('start', [('self', REQ)]),
+    ('run', [('self', REQ)]),
+    ('shutdown', [('self', REQ)]),
+]
 CT = [('cmd_type', REQ), ('name', REQ)]
 CORE = [
     ('__init__', [('self', REQ), ('robot_model', REQ), ('robot_name', None),
@@ -122,6 +133,7 @@ CASES = (
     [(manipulator_module.InterbotixManipulatorXS, m, p) for m, p in MANIPULATOR]
     + [(arm_module.InterbotixArmXSInterface, m, p) for m, p in ARM]
     + [(gripper_module.InterbotixGripperXSInterface, m, p) for m, p in GRIPPER]
+    + [(gripper_module.InterbotixGripperXS, m, p) for m, p in GRIPPER_XS]
     + [(core_module.InterbotixRobotXSCore, m, p) for m, p in CORE]
     + [(robot_module, m, p) for m, p in ROBOT]
     + [(robot_module.InterbotixRobotNode, m, p) for m, p in NODE]
@@ -157,6 +169,13 @@ def test_noetic_relative_move_is_keyword_only():
     kw = {p.name: p.default for p in sig.parameters.values() if p.kind == p.KEYWORD_ONLY}
     assert kw == {'dx': 0, 'dy': 0, 'dz': 0, 'custom_guess': None, 'execute': True,
                   'moving_time': None, 'accel_time': None, 'blocking': True}
+
+
+def test_standalone_gripper_takes_the_ros1_init_node():
+    """Noetic's InterbotixGripperXS: init_node (7th positional, or keyword); .dxl is .core."""
+    sig = inspect.signature(gripper_module.InterbotixGripperXS.__init__)
+    assert sig.parameters['init_node'].default is True
+    assert isinstance(gripper_module.InterbotixGripperXS.dxl, property)
 
 
 def test_import_layouts():

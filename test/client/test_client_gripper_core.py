@@ -100,14 +100,15 @@ def test_robot_info_is_the_urdf(bot):
 
 
 def test_registers_and_operating_modes(bot):
-    """Registers are stored per motor; unsupported modes are refused and logged."""
+    """Registers are stored per motor; unsupported modes are refused (the group reports it)."""
     core = bot.core
     core.robot_set_motor_registers('single', 'waist', 'Goal_Current', 77)
     assert core.robot_get_motor_registers('single', 'waist', 'Goal_Current') == [77]
     assert core.robot_get_motor_registers('single', 'elbow', 'Goal_Current') == [0]
     assert core.robot_set_operating_modes('group', 'arm', 'linear_position') is False
+    assert core.robot_get_robot_info('group', 'arm').mode == 'linear_position'  # as xs_sdk
+    assert core.robot_set_operating_modes('group', 'arm', 'position', 'time', 1500, 250)
     assert core.robot_get_robot_info('group', 'arm').mode == 'position'
-    core.robot_set_operating_modes('group', 'arm', 'position', 'time', 1500, 250)
     assert core.robot_get_motor_registers('group', 'arm', 'Profile_Velocity') == [1500] * 4
     core.robot_set_operating_modes('single', 'gripper', 'pwm')
     core.robot_set_motor_pid_gains('group', 'arm', kp_pos=800)  # logged as not emulated
@@ -183,3 +184,81 @@ def test_grasp_timing_from_the_xl430_figures_and_early_arm_move_warning(bot, cap
     assert bot.arm.set_single_joint_position('waist', 0.0)
     assert 'still closing' not in capfd.readouterr().err
     g.release(2.5)
+
+
+def _close_time(g, pressure: float) -> float:
+    """Return the simulated time [s] the open fingers take to reach the closed limit."""
+    def stamp() -> float:
+        s = g.core.robot_get_joint_states().header.stamp
+        return s.sec + 1e-9 * s.nanosec
+
+    g.set_pressure(pressure)
+    g.release(0.1)
+    assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 6.0)
+    assert wait_until(lambda: not g.gripper_moving, 1.0)
+    t0 = stamp()
+    g.grasp(0.0)
+    assert wait_until(lambda: g.get_finger_position() < LOWER + 5e-4, 8.0)
+    return stamp() - t0  # joint_states stamps: sim_driver's simulated clock
+
+
+def test_measured_close_time_per_pressure(bot):
+    """
+    Open to closed on the simulated XL430: never faster than its no-load figure allows.
+
+    Prints the measured times (README states the default pressure's figure).
+    """
+    g = bot.gripper
+    try:
+        times = {p: _close_time(g, p) for p in (0.0, 0.5, 1.0)}
+    finally:
+        g.set_pressure(0.5)
+        g.release(0.1)
+    print('close times [s]: ' + ', '.join(
+        f'pressure {p} ({150 + 200 * p:.0f} PWM): {t:.2f} (XL430 no-load bound '
+        f'{g.travel_time(150 + 200 * p):.2f})' for p, t in times.items()))
+    for p, t in times.items():
+        assert g.travel_time(150 + 200 * p) <= t < 3.0 * g.travel_time(150 + 200 * p), (p, t)
+    assert times[0.0] > times[0.5] > times[1.0]
+
+
+def test_interrupt_stops_moving_fingers_and_keeps_a_grasp(bot):
+    """
+    Ctrl-C (core.interrupt()) with the gripper driven in pwm mode.
+
+    Fingers closing on nothing stop where they are (effort 0); fingers squeezing an object keep
+    squeezing it (dropping it is not safe); the report line says which.
+    """
+    g = bot.gripper
+    g.set_pressure(0.0)  # 150 PWM: slow enough to interrupt mid-way
+    try:
+        g.release(0.1)
+        assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 6.0)
+        assert wait_until(lambda: not g.gripper_moving, 1.0)
+        g.grasp(0.0)
+        assert wait_until(lambda: g.get_finger_position() < UPPER - 0.004, 3.0)
+        report = bot.core.interrupt(settle=0.0)
+        assert 'gripper stopped at' in report, report
+        pause(0.3)
+        stopped = g.get_finger_position()
+        pause(0.7)
+        assert abs(g.get_finger_position() - stopped) < 3e-4
+        assert LOWER + 0.002 < stopped < UPPER - 0.002, stopped
+        assert abs(g.get_gripper_effort()) < 0.02
+        # squeezing an object: it keeps the grasp
+        assert bot.core.set_remote_parameters(sim_driver(bot), {'object_width': 0.040}) == ''
+        g.release(0.1)
+        assert wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 6.0)
+        g.grasp(0.0)
+        assert wait_until(lambda: abs(g.get_finger_width() - 0.040) < 1e-3, 8.0)
+        pause(0.5)
+        report = bot.core.interrupt(settle=0.0)
+        assert 'gripper keeps squeezing an object' in report and '150 PWM' in report, report
+        pause(0.5)
+        assert g.get_finger_width() == pytest.approx(0.040, abs=1e-3)
+        assert g.get_gripper_effort() == pytest.approx(-pwm_to_effort(150), abs=0.05)
+    finally:
+        bot.core.set_remote_parameters(sim_driver(bot), {'object_width': 0.0})
+        g.set_pressure(0.5)
+        g.release(0.1)
+        wait_until(lambda: g.get_finger_position() > UPPER - 5e-4, 6.0)

@@ -3,11 +3,15 @@ Operating modes emulated as xs_sdk does, on real in-process nodes (the ``bot`` f
 
 velocity commands are rad/s, current commands mA (torque through the XL430 figures), pwm
 commands PWM units; positions for a joint in another mode are refused, never executed as
-something else; a mode the simulation cannot emulate is refused with the reason.
+something else; a mode the simulation cannot emulate is refused with the reason, and so are
+the commands of those joints until a supported mode is set. The core's position writes last
+the Profile_Velocity register, stretched to the velocity limits when it is too short (0 = no
+profile).
 """
 import time
 
-from client_support import pause, wait_until
+from client_support import ACCEL_TIME, MOVING_TIME, pause, wait_until
+import numpy as np
 import pytest
 
 pytestmark = pytest.mark.ros
@@ -18,6 +22,7 @@ def arm_at_sleep(bot):
     """Start at the sleep pose in position mode; put everything back afterwards."""
     bot.arm.go_to_sleep_pose()
     yield bot
+    bot.arm.set_trajectory_time(MOVING_TIME, ACCEL_TIME)
     bot.core.robot_set_operating_modes('group', 'all', 'position')
     bot.core.robot_set_operating_modes('single', 'gripper', 'pwm')
     bot.core.robot_reset()
@@ -30,14 +35,47 @@ def _driver_mode(bot, joint):
                                          f'operating_mode.{joint}')
 
 
-def test_unknown_mode_is_refused_and_nothing_changes(arm_at_sleep, capfd):
-    """'linear_position' on the arm: False, an error naming the mode, still position."""
+def _still(bot, seconds: float = 0.8) -> float:
+    """Return how far [rad] any arm joint moved during ``seconds``."""
+    q0 = np.array(bot.arm.get_joint_positions())
+    pause(seconds)
+    return float(np.max(np.abs(np.array(bot.arm.get_joint_positions()) - q0)))
+
+
+def test_refused_mode_blocks_the_group_until_a_valid_mode(arm_at_sleep, capfd):
+    """
+    'linear_position' on the arm: False with the reason; then no command of the arm runs.
+
+    As xs_sdk's group: its mode is the refused one, so robot_write_commands, single-joint
+    commands, trajectories and the arm interface's moves are refused with a reason naming it
+    (never executed as positions); sim_driver keeps its mode. 'position' lifts the block.
+    """
     bot = arm_at_sleep
     assert bot.core.robot_set_operating_modes('group', 'arm', 'linear_position') is False
-    assert "Operating mode 'linear_position' is not emulated" in capfd.readouterr().err
-    assert bot.core.robot_get_robot_info('group', 'arm').mode == 'position'
+    err = capfd.readouterr().err
+    assert "Operating mode 'linear_position' is not emulated" in err and 'refused' in err
+    assert bot.core.robot_get_robot_info('group', 'arm').mode == 'linear_position'
     assert _driver_mode(bot, 'shoulder') == ''
-    assert bot.arm.set_single_joint_position('waist', 0.3)
+    bot.core.robot_write_commands('arm', [0.0, 1.0, 1.0, 0.0])
+    bot.core.robot_write_joint_command('waist', 0.5)
+    bot.core.robot_write_trajectory('group', 'arm', 'position',
+                                    [{0.0: [0.0] * 4}, {1.0: [0.5, 0.0, 0.0, 0.0]}])
+    assert _still(bot) < 0.01
+    err = capfd.readouterr().err
+    assert err.count("operating mode 'linear_position' of waist") >= 3, err
+    assert 'Will not execute' in err
+    assert bot.arm.set_single_joint_position('waist', 0.3) is False
+    assert "'linear_position'" in bot.arm.last_error and 'refused' in bot.arm.last_error
+    assert _still(bot, 0.3) < 0.01
+    # an unknown name on one motor blocks that motor only
+    assert bot.core.robot_set_operating_modes('group', 'arm', 'position')
+    assert bot.core.robot_set_operating_modes('single', 'elbow', 'torque') is False
+    bot.core.robot_write_joint_command('elbow', 1.0)
+    assert _still(bot) < 0.01
+    assert "operating mode 'torque' of elbow was refused" in capfd.readouterr().err
+    assert bot.core.robot_set_operating_modes('single', 'elbow', 'position')
+    bot.core.robot_write_commands('arm', [0.3, -1.0, 1.0, 0.5])
+    assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] - 0.3) < 0.02, 5.0)
 
 
 def test_velocity_mode_turns_at_the_commanded_speed(arm_at_sleep):
@@ -90,3 +128,30 @@ def test_pwm_mode_and_the_driver_refuses_positions(arm_at_sleep):
     pause(0.8)
     bot.core.robot_write_joint_command('waist', 0)
     assert bot.arm.get_joint_positions()[0] - q0 > 0.2
+
+
+def test_core_position_writes_with_profile_velocity_zero(arm_at_sleep, capfd):
+    """
+    set_trajectory_time(0) then robot_write_commands: a move at the velocity limits.
+
+    Profile_Velocity 0 is the servos' "no profile"; a too short profile is stretched with a
+    warning; positions outside the limits are refused with an error and nothing moves.
+    """
+    bot = arm_at_sleep
+    bot.arm.set_trajectory_time(0.0, 0.0)
+    assert bot.core.robot_get_motor_registers('group', 'arm', 'Profile_Velocity') == [0] * 4
+    capfd.readouterr()
+    t0 = time.monotonic()
+    bot.core.robot_write_commands('arm', [0.6, -1.0, 1.0, 0.5])
+    assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] - 0.6) < 0.02, 3.0)
+    assert time.monotonic() - t0 < 2.5  # 0.88 rad at most at pi rad/s: ~0.35 s + settling
+    bot.core.robot_write_joint_command('waist', -0.4)
+    assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] + 0.4) < 0.02, 3.0)
+    assert '[ERROR]' not in capfd.readouterr().err
+    bot.arm.set_trajectory_time(0.1, 0.05)  # 100 ms for 2 rad: stretched
+    bot.core.robot_write_joint_command('waist', 1.6)
+    assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] - 1.6) < 0.02, 4.0)
+    assert 'exceeds the joint velocity limits' in capfd.readouterr().err
+    bot.core.robot_write_commands('arm', [0.0, -3.0, 1.0, 0.5])  # shoulder beyond -1.94
+    assert _still(bot) < 0.01
+    assert "for 'shoulder' is outside its limits" in capfd.readouterr().err
