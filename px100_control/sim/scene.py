@@ -33,6 +33,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.iterative import chain, fk_batch
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.paths import data_path
 import yaml
 
@@ -82,7 +83,7 @@ class SceneBody:
             local = np.array([self.size[0], self.size[0], 0.5 * self.size[1]])
         else:
             return np.full(3, self.size[0])
-        R = rpy_matrix(self.rpy)
+        R = euler_sxyz_to_matrix(*self.rpy)
         return np.abs(R) @ local
 
 
@@ -112,16 +113,6 @@ class Scene:
                 return b
         raise InvalidInputError(f"scene '{self.name}' has no body '{name}' (bodies: "
                                 f"{', '.join(b.name for b in self.bodies)})")
-
-
-def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
-    """Return R = Rz(yaw) Ry(pitch) Rx(roll) (3, 3) of roll, pitch, yaw [rad]."""
-    r, p, y = (float(a) for a in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), \
-        math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
 
 
 def rpy_to_quaternion_xyzw(rpy: Sequence[float]) -> Tuple[float, float, float, float]:

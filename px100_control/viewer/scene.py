@@ -21,6 +21,7 @@ from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from px100_control.kinematics.rotations import matrix_to_quaternion
 from px100_control.viewer.state import ViewerState
 
 #: buttons of the controls panel: (action name, label)
@@ -36,13 +37,6 @@ EE_LINKS = ('ee_gripper_link', 'ee_arm_link', 'ee_link', 'tool0')
 def _wxyz(quat_xyzw: Sequence[float]) -> Tuple[float, float, float, float]:
     x, y, z, w = (float(v) for v in quat_xyzw)
     return (w, x, y, z)
-
-
-def _quat_xyzw(rot: np.ndarray) -> Tuple[float, float, float, float]:
-    """Return the unit quaternion (x, y, z, w) of a 3x3 rotation matrix."""
-    import viser.transforms as vtf
-    w, x, y, z = vtf.SO3.from_matrix(np.asarray(rot, dtype=float)).wxyz
-    return (float(x), float(y), float(z), float(w))
 
 
 def _rgb255(rgba: Sequence[float]) -> Tuple[int, int, int]:
@@ -79,7 +73,7 @@ class UrdfKinematics:
             if cfg:
                 self.urdf.update_cfg(cfg)
             T = self.urdf.get_transform(self.ee, self.base)
-        return tuple(float(v) for v in T[:3, 3]), _quat_xyzw(T[:3, :3])
+        return tuple(float(v) for v in T[:3, 3]), matrix_to_quaternion(T[:3, :3])
 
 
 class ViewerScene:
