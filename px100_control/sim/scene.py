@@ -171,13 +171,18 @@ def _numbers(where: str, value, count: Optional[int] = None) -> Tuple[float, ...
     return tuple(out)
 
 
-def _body(where: str, raw, kind: str) -> SceneBody:
+def _check_keys(where: str, raw, allowed: set, not_a_mapping: str) -> None:
+    """Raise InvalidInputError(not_a_mapping) unless raw is a dict, and on keys not allowed."""
     if not isinstance(raw, dict):
-        raise InvalidInputError(f'{where} must be a mapping, not {raw!r}')
-    unknown = sorted(set(raw) - _BODY_KEYS)
+        raise InvalidInputError(not_a_mapping)
+    unknown = sorted(set(raw) - allowed)
     if unknown:
         raise InvalidInputError(f'{where}: unknown key(s) {unknown} (allowed: '
-                                f'{sorted(_BODY_KEYS)})')
+                                f'{sorted(allowed)})')
+
+
+def _body(where: str, raw, kind: str) -> SceneBody:
+    _check_keys(where, raw, _BODY_KEYS, f'{where} must be a mapping, not {raw!r}')
     name = raw.get('name', 'table' if kind == 'table' else None)
     if not isinstance(name, str) or not _NAME.match(name):
         raise InvalidInputError(f'{where}.name must be an identifier (letters, digits, _), '
@@ -236,12 +241,8 @@ def parse_scene(data, path: str = '<scene>', robot=None) -> Scene:
     :raises InvalidInputError: naming the field that is wrong
     """
     label = os.path.basename(path)
-    if not isinstance(data, dict):
-        raise InvalidInputError(f'{label}: a scene file must be a mapping, not {type(data)}')
-    unknown = sorted(set(data) - _TOP_KEYS)
-    if unknown:
-        raise InvalidInputError(f'{label}: unknown key(s) {unknown} (allowed: '
-                                f'{sorted(_TOP_KEYS)})')
+    _check_keys(label, data, _TOP_KEYS,
+                f'{label}: a scene file must be a mapping, not {type(data)}')
     name = data.get('name', os.path.splitext(label)[0])
     if not isinstance(name, str) or not name:
         raise InvalidInputError(f'{label}: name must be a string, not {name!r}')
