@@ -396,7 +396,8 @@ def _full_rows(g: Px100Geometry, L, T=None) -> list:
     """
     Return the 'full' candidates of a pose L (4 rows of 4 floats; T: the same as an array).
 
-    The waist comes from the tool orientation (seed 001), then two elbow signs.
+    The waist comes from the tool orientation (the heading of the tool's horizontal y axis),
+    the pitch sum from the rotation about that axis, then two elbow signs.
     """
     if g.frame_is_base and g.tool_is_identity:
         P0, P1, P2 = L[0][3], L[1][3], L[2][3]
