@@ -32,6 +32,7 @@ import copy
 from dataclasses import dataclass, field
 import math
 import os
+import sys
 import threading
 import time
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -108,7 +109,6 @@ def effort_to_pwm(effort: float) -> float:
 
 def _active_recorder_dirs() -> List[str]:
     """Return the bag directories of the Recorders running in this process."""
-    import sys
     module = sys.modules.get('px100_control.ros.recorder_node')
     return list(module.active_bag_dirs()) if module is not None else []
 

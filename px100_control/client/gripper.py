@@ -30,6 +30,7 @@ from px100_control.client.core import effort_to_pwm, InterbotixRobotXSCore, PWM_
     pwm_to_effort, STALL_TORQUE
 from px100_control.client.robot import InterbotixException, robot_shutdown
 from px100_control.control.gripper import GripperLinkage
+from rclpy.logging import LoggingSeverity
 
 __all__ = ['InterbotixGripperXS', 'InterbotixGripperXSInterface', 'pwm_to_effort',
            'effort_to_pwm', 'PWM_LIMIT', 'STALL_TORQUE']
@@ -228,7 +229,6 @@ class InterbotixGripperXS:
                  gripper_pressure_upper_limit: int = 350,
                  joint_state_topic: str = 'joint_states', logging_level=None,
                  node_name: str = 'robot_manipulation', *, init_node: bool = True, **kwargs):
-        from rclpy.logging import LoggingSeverity
         if isinstance(joint_state_topic, bool):  # ROS 1: the 7th positional is init_node
             init_node, joint_state_topic = joint_state_topic, 'joint_states'
         self.init_node = init_node  # ROS 1: unused (the client's node always exists)

@@ -5,8 +5,13 @@ The wire module's CDR checked against rclpy: the nodes use the fast path only wh
 and ``pose_stamped_matches_rclpy`` compare :mod:`px100_control.wire.cdr` with rclpy's
 serializer of the running middleware on sample messages.
 """
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
 from px100_control.wire.cdr import (diagnostic_status, JointStateWriter, read_pose_stamped,
                                     trajectory_shape)
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 
 def matches_rclpy() -> bool:
@@ -17,9 +22,6 @@ def matches_rclpy() -> bool:
     the sample messages: odd-length strings, none / one / several positions, two frames.
     (rclpy's own serializer leaves padding bytes uninitialised, so bytes are not compared.)
     """
-    from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-    from rclpy.serialization import deserialize_message
-    from sensor_msgs.msg import JointState
     names = ['waist', 'shoulder', 'elbow', 'wrist_angle']
     for frame in ('', 'px100/base_link'):
         writer = JointStateWriter(names, frame)
@@ -42,8 +44,6 @@ def matches_rclpy() -> bool:
 
 def trajectory_shape_matches_rclpy() -> bool:
     """Return True when :func:`trajectory_shape` reads rclpy's serialization of samples right."""
-    from rclpy.serialization import serialize_message
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
     for frame, names, counts in (('', [], []), ('px100/base_link', ['waist', 'elbow'],
                                                 [(2, 2, 0, 0), (2, 0, 2, 1), (0, 0, 0, 3)]),
                                  ('x', ['a', 'odd_len', ''], [(3, 0, 0, 0)] * 3)):
@@ -66,8 +66,6 @@ def trajectory_shape_matches_rclpy() -> bool:
 
 def pose_stamped_matches_rclpy() -> bool:
     """Return True when :func:`read_pose_stamped` reads rclpy's serialization of samples right."""
-    from geometry_msgs.msg import PoseStamped
-    from rclpy.serialization import serialize_message
     for frame in ('', 'px100/base_link', 'odd'):
         msg = PoseStamped()
         msg.header.stamp.sec, msg.header.stamp.nanosec = -3, 77

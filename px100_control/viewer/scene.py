@@ -17,6 +17,7 @@ connects gets everything redrawn.
 """
 import io
 import threading
+import time
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
@@ -51,7 +52,7 @@ class UrdfKinematics:
     """
 
     def __init__(self, urdf_xml: str, load_meshes: bool = False):
-        import yourdfpy
+        import yourdfpy  # optional: with trimesh ~0.5 s to import, loaded with a URDF
         try:
             self.urdf = yourdfpy.URDF.load(
                 io.BytesIO(urdf_xml.encode('utf-8')), build_scene_graph=True,
@@ -91,7 +92,7 @@ class ViewerScene:
                  arm_joints: Sequence[Tuple[str, float, float]] = (),
                  actions: Optional[Callable] = None, title: str = 'px100_control',
                  server=None):
-        import viser
+        import viser  # optional: ~1 s to import, loaded with the scene
         self.server = server or viser.ViserServer(host=host, port=port, label=title,
                                                   verbose=False)
         self.read_only = bool(read_only)
@@ -147,7 +148,6 @@ class ViewerScene:
             self.gizmo.disable_rotations = not self.orientation_box.value
 
     def _now(self) -> float:
-        import time
         return time.monotonic()
 
     def _user(self, action: str, **values) -> None:
@@ -207,7 +207,7 @@ class ViewerScene:
 
     def load_robot(self, state: ViewerState) -> None:
         """(Re)load the robot of state.urdf_xml; a bad URDF is reported in state.robot_error."""
-        from viser.extras import ViserUrdf
+        from viser.extras import ViserUrdf  # optional: viser is loaded with the scene
         with self._lock:
             if self._urdf_vis is not None:
                 self._urdf_vis.remove()
