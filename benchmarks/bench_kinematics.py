@@ -39,7 +39,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from px100_control.kinematics.iterative import chain, fk_batch, fk_jacobian_py  # noqa: E402
+from px100_control.kinematics.iterative import chain, fk_batch  # noqa: E402
+from px100_control.kinematics.kernels import fk_jacobian_py  # noqa: E402
 from px100_control.kinematics.solve import solve_ik, solve_ik_batch  # noqa: E402
 from px100_control.models.registry import load_robot  # noqa: E402
 

@@ -65,14 +65,15 @@ def _moving(sim, model):
 def _held(model):
     """Return (sim, step function) with the red cube picked and the waist swinging."""
     from px100_control.control.simulator import ArmSimulator
+    from px100_control.kinematics.rotations import euler_sxyz_to_matrix
     from px100_control.kinematics.solve import solve_ik
-    from px100_control.sim.scene import load_scene, rpy_matrix
+    from px100_control.sim.scene import load_scene
     sim = ArmSimulator(model, scene=load_scene('pick_place', model))
     names = list(model.joint_names)
 
     def ik(p):
         T = np.eye(4)
-        T[:3, :3] = rpy_matrix((0.0, math.pi / 2, math.atan2(p[1], p[0])))
+        T[:3, :3] = euler_sxyz_to_matrix(0.0, math.pi / 2, math.atan2(p[1], p[0]))
         T[:3, 3] = p
         return solve_ik(model, T, mode='pitch', q_seed=sim.positions()).q
 

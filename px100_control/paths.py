@@ -17,7 +17,7 @@ def share_dir() -> str:
     """
     if os.path.isfile(os.path.join(_SOURCE_ROOT, 'package.xml')):
         return _SOURCE_ROOT
-    from ament_index_python.packages import get_package_share_directory
+    from ament_index_python.packages import get_package_share_directory  # optional: installs only
     return get_package_share_directory(PACKAGE)
 
 

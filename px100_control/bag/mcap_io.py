@@ -47,10 +47,10 @@ def record(opcode: int, content: bytes) -> bytes:
 
 def _compressor(compression: str):
     if compression == 'zstd':
-        import zstandard
+        import zstandard  # optional: compressed bags only
         return zstandard.ZstdCompressor(level=3).compress
     if compression == 'lz4':
-        import lz4.frame
+        import lz4.frame  # optional: compressed bags only
         return lz4.frame.compress
     if compression in ('', 'none'):
         return None

@@ -74,7 +74,7 @@ def normalize_type(type_name: str) -> str:
 def _share_dir_candidates(package: str) -> List[str]:
     dirs = []
     try:
-        from ament_index_python.packages import get_package_share_directory
+        from ament_index_python.packages import get_package_share_directory  # optional: ROS
         dirs.append(get_package_share_directory(package))
     except Exception:  # not in the index, or no ament_index_python at all
         pass

@@ -142,9 +142,9 @@ def tracking_errors(series: BagSeries) -> Dict[str, Tuple[np.ndarray, np.ndarray
 
 
 def _pyplot():
-    import matplotlib
+    import matplotlib  # optional: plots only (matplotlib takes seconds to import)
     matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # optional: after use('Agg')
     return plt
 
 
@@ -360,9 +360,9 @@ def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
     :raises BagError: no joint_states, or pillow is not installed
     """
     plt = _pyplot()
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    from matplotlib.animation import FuncAnimation, PillowWriter  # optional: plots only
     try:
-        import PIL  # noqa: F401  (PillowWriter needs it)
+        import PIL  # noqa: F401  # optional: pillow, needed by PillowWriter
     except ImportError:
         raise BagError('cannot write a GIF: pillow is not installed') from None
     frames = animation_frames(series, fps, max_frames)

@@ -14,6 +14,9 @@ import io
 import os
 from typing import Dict, Iterable, Iterator, List, Optional, Tuple
 
+from mcap.reader import make_reader
+from mcap.records import Channel, Schema
+from mcap.stream_reader import StreamReader
 from px100_control.bag import metadata as md
 from px100_control.errors import BagError
 from px100_control.wire.private_api import definition_decoders
@@ -147,7 +150,6 @@ class _File:
     """One open MCAP file with its summary."""
 
     def __init__(self, path: str):
-        from mcap.reader import make_reader
         check_mcap_file(path)
         self.path = path
         self.stream = open(path, 'rb')
@@ -169,8 +171,6 @@ class _File:
             self._scan_channels()
 
     def _scan_channels(self) -> None:
-        from mcap.records import Channel, Schema
-        from mcap.stream_reader import StreamReader
         self.stream.seek(0)
         try:
             for record in StreamReader(self.stream, validate_crcs=True).records:

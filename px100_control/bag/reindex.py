@@ -14,6 +14,8 @@ import os
 import sys
 from typing import Dict, List, Optional
 
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
 from px100_control.bag import metadata as md
 from px100_control.bag.reader import BagReader, check_mcap_file, MCAP_MAGIC
 from px100_control.bag.writer import BagWriter
@@ -85,8 +87,6 @@ def recover_file(path: str) -> FileReport:
 
     :raises BagError: not an MCAP file at all, or not one complete chunk in it
     """
-    from mcap.records import Channel, Message, Schema
-    from mcap.stream_reader import StreamReader
     size = os.path.getsize(path)
     bag_dir, name = os.path.split(path)
     tmp_name = name + '.recovering'

@@ -27,7 +27,7 @@ from px100_control.errors import BagError, Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.models.urdf_writer import urdf_from_model
-from px100_control.wire.cdr import cdr_string, ENCAPSULATION
+from px100_control.wire.cdr import string_message
 
 #: joint states kept for /tf while the URDF is being parsed at start-up
 TF_BACKLOG = 20000
@@ -41,11 +41,6 @@ JointStateDecoder = Callable[[bytes], Tuple[dict, int]]
 MarkerDecoder = Callable[[bytes], Tuple[List[WorldMarker], int]]
 
 
-def string_message(text: str) -> bytes:
-    """Return the CDR bytes of a std_msgs/String (encapsulation header, length, text, NUL)."""
-    return ENCAPSULATION + cdr_string(text, 0)
-
-
 class TfRecording:
     """
     Write /tf from joint states and world markers into a bag (see the module docstring).
@@ -57,6 +52,8 @@ class TfRecording:
     :param decode_joint_state: see JointStateDecoder (raises on a malformed message)
     :param decode_markers: see MarkerDecoder (raises on a malformed message)
     :param decode_string: decode(bytes) -> str of a std_msgs/String
+    :param encode_string: encode(str) -> bytes of a std_msgs/String (the model's
+        robot_description when none is published)
     :param log: log(level 'info' | 'warning', text)
     :param prefix: the robot's topics start with it (``/px100/``): ``<prefix>joint_states``,
         ``<prefix>world/markers``, ``<prefix>robot_description``
@@ -66,7 +63,8 @@ class TfRecording:
     def __init__(self, bag: BagWriter, robot_name: str, model_name: str, period_ns: int,
                  decode_joint_state: JointStateDecoder, decode_markers: MarkerDecoder,
                  decode_string: Callable[[bytes], str], log: Callable[[str, str], None],
-                 prefix: str, enabled: bool = True):
+                 prefix: str, enabled: bool = True,
+                 encode_string: Callable[[str], bytes] = string_message):
         self.bag, self.robot_name, self.model_name = bag, robot_name, model_name
         self.js_topic = prefix + 'joint_states'
         self.markers_topic = prefix + 'world/markers'
@@ -74,6 +72,7 @@ class TfRecording:
         self.period_ns = int(period_ns)
         self._decode_js, self._decode_markers = decode_joint_state, decode_markers
         self._decode_string, self._log = decode_string, log
+        self._encode_string = encode_string
         #: False once it is known that no /tf can be written (no URDF)
         self.enabled = bool(enabled)
         self.tree: Optional[TfTree] = None
@@ -229,7 +228,7 @@ class TfRecording:
         try:
             if not self.bag.has_topic(topic):
                 self.bag.add_topic(topic, 'std_msgs/msg/String', [DESCRIPTION_QOS])
-            self.bag.write(topic, string_message(urdf), self.bag.start_ns or time.time_ns())
+            self.bag.write(topic, self._encode_string(urdf), self.bag.start_ns or time.time_ns())
             self._log('info', f'no robot_description published: wrote the '
                               f'{self.model_name} model URDF to {topic}')
         except BagError:

@@ -48,6 +48,7 @@ from px100_control.client.core import feasible_duration, InterbotixRobotXSCore, 
 from px100_control.client.robot import InterbotixException
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.cartesian import CartesianPathError, plan_ee_waypoints
+from px100_control.kinematics.kernels import wrap
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import inv_transform, pose_error
 
@@ -754,7 +755,7 @@ class InterbotixArmXSInterface:
         q = np.array(theta_list, dtype=float)
         info = self.group_info
         for i in range(q.size):
-            q[i] = (q[i] + math.pi) % self.rev - math.pi
+            q[i] = wrap(q[i])
             if round(q[i], 3) < round(info.joint_lower_limits[i], 3):
                 q[i] += self.rev
             elif round(q[i], 3) > round(info.joint_upper_limits[i], 3):

@@ -30,6 +30,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from typing import Dict, Optional
 
 from px100_control.ros.common import make_executor
@@ -37,6 +38,7 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 
 class InterbotixException(Exception):
@@ -62,7 +64,6 @@ class InterbotixRobotNode(Node):
         if not interbotix_is_up():
             rclpy.spin_until_future_complete(self, future, timeout_sec=timeout_sec)
             return
-        import time
         start = time.monotonic()
         while not future.done():
             if timeout_sec is not None and timeout_sec >= 0 and \
@@ -92,7 +93,6 @@ class InterbotixRobotNode(Node):
 
     def sleep_for(self, seconds: float) -> None:
         """Sleep ``seconds`` of the node's clock (wall time unless use_sim_time)."""
-        import time
         if seconds > 0:
             clock = self.get_clock()
             if clock.clock_type == rclpy.clock.ClockType.ROS_TIME and \
@@ -136,7 +136,6 @@ def create_interbotix_global_node(node_name: str = 'interbotix_robot_manipulatio
             raise InterbotixException(
                 'Tried to create an Interbotix global node but one already exists.')
         if not rclpy.ok():
-            from rclpy.signals import SignalHandlerOptions
             # no rclpy signal handlers: SIGINT would shut the context down under the script
             rclpy.init(args=args[0] if args else None,
                        signal_handler_options=SignalHandlerOptions.NO)

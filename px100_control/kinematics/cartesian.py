@@ -26,6 +26,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from px100_control.errors import InvalidInputError, Px100Error
+from px100_control.kinematics.kernels import wrap_array
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix, matrix_to_euler_sxyz
 from px100_control.kinematics.se3 import exp_so3, log_so3
 from px100_control.kinematics.solve import check_pose, solve_path
@@ -80,7 +81,7 @@ def interpolate_pose(T0: np.ndarray, T1: np.ndarray, s: float,
         if orientation == 'azimuth':
             a0[2] -= math.atan2(T0[1, 3], T0[0, 3])
             a1[2] -= math.atan2(T1[1, 3], T1[0, 3])
-        d = np.remainder(a1 - a0 + math.pi, 2 * math.pi) - math.pi
+        d = wrap_array(a1 - a0)
         a = a0 + s * d
         if orientation == 'azimuth':
             a[2] += math.atan2(T[1, 3], T[0, 3])

@@ -12,8 +12,8 @@ from typing import Sequence, Tuple
 
 import numpy as np
 
-from px100_control.kinematics.se3 import rot_x, rot_z, transform
-from px100_control.kinematics.se3 import rot_y
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix
+from px100_control.kinematics.se3 import transform
 
 
 @dataclass(frozen=True)
@@ -90,5 +90,4 @@ def dh_to_screws(rows: Sequence[DHRow], base=None, tool=None, modified: bool = F
 
 def tool_from_xyz_rpy(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
     """Return the (4, 4) transform of a URDF-style origin (xyz [m], rpy [rad] fixed-axis)."""
-    r, p, y = rpy
-    return transform(rot_z(y) @ rot_y(p) @ rot_x(r), xyz)
+    return transform(euler_sxyz_to_matrix(*rpy), xyz)

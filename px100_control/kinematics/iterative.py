@@ -12,19 +12,21 @@ Newton-Raphson: dq = pinv(J) e, step norm limited to 0.5 rad, then projected ont
 joint limits. Both return an ``IkResult``.
 
 The single-configuration loops run on plain Python floats (small chains: a numpy call costs
-more than the arithmetic); ``fk_batch`` is the vectorised numpy FK for many configurations.
+more than the arithmetic) over the FK and Jacobian kernels ``kernels.fk_py`` /
+``fk_jacobian_py`` and this module's ``chain`` data; ``fk_batch`` is the vectorised numpy FK
+for many configurations.
 Units: m, rad.
 """
 from dataclasses import dataclass
 import functools
 import math
 from operator import mul
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 
 from px100_control.kinematics.ik_types import IkResult
-from px100_control.kinematics.kernels import cholesky, cholesky_solve
+from px100_control.kinematics.kernels import cholesky, cholesky_solve, fk_jacobian_py
 from px100_control.kinematics.se3 import log_se3
 
 Vec = List[float]
@@ -52,7 +54,7 @@ class Chain:
     lo: tuple             # limits as floats
     hi: tuple
     wraps: tuple          # revolute joints whose range is (almost) a full turn
-    axes: tuple = ()      # per joint (axis code, sign, point on the axis) for fk_py, below
+    axes: tuple = ()      # per joint (axis code, sign, point on the axis) for kernels.fk_py
 
 
 @functools.lru_cache(maxsize=64)
@@ -82,7 +84,7 @@ def chain(model) -> Chain:
 
 def _axis_code(w: np.ndarray, r: np.ndarray, revolute: bool) -> tuple:
     """
-    Return (code, sign, (rx, ry, rz)) of a joint for ``fk_py``.
+    Return (code, sign, (rx, ry, rz)) of a joint for ``kernels.fk_py``.
 
     code 1, 2, 3: a revolute axis along +-x, +-y, +-z (sign) through the point r = w x v;
     0: any other revolute axis; -1: prismatic.
@@ -99,164 +101,6 @@ def _axis_code(w: np.ndarray, r: np.ndarray, revolute: bool) -> tuple:
 # ---------------------------------------------------------------------------------------------
 # forward kinematics and Jacobian
 # ---------------------------------------------------------------------------------------------
-
-def _times_home(c: Chain, Rc, px: float, py_: float, pz: float):
-    """Return (R, p) of the product of exponentials (Rc, p) times the home pose M (lists)."""
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = Rc
-    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = c.MR
-    mx, my, mz = c.Mp
-    R = [[r00 * m00 + r01 * m10 + r02 * m20, r00 * m01 + r01 * m11 + r02 * m21,
-          r00 * m02 + r01 * m12 + r02 * m22],
-         [r10 * m00 + r11 * m10 + r12 * m20, r10 * m01 + r11 * m11 + r12 * m21,
-          r10 * m02 + r11 * m12 + r12 * m22],
-         [r20 * m00 + r21 * m10 + r22 * m20, r20 * m01 + r21 * m11 + r22 * m21,
-          r20 * m02 + r21 * m12 + r22 * m22]]
-    p = [r00 * mx + r01 * my + r02 * mz + px, r10 * mx + r11 * my + r12 * mz + py_,
-         r20 * mx + r21 * my + r22 * mz + pz]
-    return R, p
-
-
-def fk_jacobian_py(c: Chain, q: Sequence[float]):
-    """
-    Return (R, p, Jw, Jv) at q on plain floats: pose and geometric Jacobian.
-
-    R: 3x3 nested lists, p: [x, y, z] [m]; Jw[i], Jv[i]: column i as 3-lists, the angular
-    velocity and the velocity of the end-effector origin per unit joint rate (base frame).
-    """
-    r00 = r11 = r22 = 1.0
-    r01 = r02 = r10 = r12 = r20 = r21 = 0.0
-    px = py_ = pz = 0.0
-    Jw: list = []
-    Vs: list = []
-    for (w, v, kv, k2v, rev), th in zip(c.py, q):
-        wx, wy, wz = w
-        # space-frame joint axis: omega = Rc w, v_s = Rc v + pc x omega
-        ox = r00 * wx + r01 * wy + r02 * wz
-        oy = r10 * wx + r11 * wy + r12 * wz
-        oz = r20 * wx + r21 * wy + r22 * wz
-        vx, vy, vz = v
-        ux = r00 * vx + r01 * vy + r02 * vz + py_ * oz - pz * oy
-        uy = r10 * vx + r11 * vy + r12 * vz + pz * ox - px * oz
-        uz = r20 * vx + r21 * vy + r22 * vz + px * oy - py_ * ox
-        Jw.append((ox, oy, oz))
-        Vs.append((ux, uy, uz))
-        if rev:
-            s, cc = math.sin(th), 1.0 - math.cos(th)
-            ts = th - s
-            # R_i = I + s K + cc K^2, K^2 = w w^T - I
-            a00 = 1.0 + cc * (wx * wx - 1.0)
-            a11 = 1.0 + cc * (wy * wy - 1.0)
-            a22 = 1.0 + cc * (wz * wz - 1.0)
-            a01 = cc * wx * wy - s * wz
-            a10 = cc * wx * wy + s * wz
-            a02 = cc * wx * wz + s * wy
-            a20 = cc * wx * wz - s * wy
-            a12 = cc * wy * wz - s * wx
-            a21 = cc * wy * wz + s * wx
-            tx = th * vx + cc * kv[0] + ts * k2v[0]
-            ty = th * vy + cc * kv[1] + ts * k2v[1]
-            tz = th * vz + cc * kv[2] + ts * k2v[2]
-            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
-                           r10 * tx + r11 * ty + r12 * tz + py_,
-                           r20 * tx + r21 * ty + r22 * tz + pz)
-            r00, r01, r02 = (r00 * a00 + r01 * a10 + r02 * a20, r00 * a01 + r01 * a11
-                             + r02 * a21, r00 * a02 + r01 * a12 + r02 * a22)
-            r10, r11, r12 = (r10 * a00 + r11 * a10 + r12 * a20, r10 * a01 + r11 * a11
-                             + r12 * a21, r10 * a02 + r11 * a12 + r12 * a22)
-            r20, r21, r22 = (r20 * a00 + r21 * a10 + r22 * a20, r20 * a01 + r21 * a11
-                             + r22 * a21, r20 * a02 + r21 * a12 + r22 * a22)
-        else:
-            tx, ty, tz = th * vx, th * vy, th * vz
-            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
-                           r10 * tx + r11 * ty + r12 * tz + py_,
-                           r20 * tx + r21 * ty + r22 * tz + pz)
-    R, p = _times_home(c, ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)), px, py_, pz)
-    ex, ey, ez = p
-    # velocity of the end-effector point: v_s + omega x p
-    Jv = [(ux + oy * ez - oz * ey, uy + oz * ex - ox * ez, uz + ox * ey - oy * ex)
-          for (ox, oy, oz), (ux, uy, uz) in zip(Jw, Vs)]
-    return R, p, Jw, Jv
-
-
-def fk_py(c: Chain, q: Sequence[float]):
-    """
-    Return (R 3x3 nested lists, p [x, y, z]) of the end effector at q (plain floats).
-
-    Each revolute joint is T_i = (R_i, (I - R_i) r) about its axis point r; axes along a base
-    coordinate axis at q = 0 take the short form of R_i (fewer products), others the Rodrigues
-    form of the screw.
-    """
-    r00 = r11 = r22 = 1.0
-    r01 = r02 = r10 = r12 = r20 = r21 = 0.0
-    px = py_ = pz = 0.0
-    cos, sin = math.cos, math.sin
-    for (code, sg, (rx, ry, rz)), (w, v, kv, k2v, rev), th in zip(c.axes, c.py, q):
-        if code == 3:          # about z: columns 0, 1 turn; d = (I - Rz) r
-            t = sg * th
-            cs, sn = cos(t), sin(t)
-            dx, dy = rx - cs * rx + sn * ry, ry - sn * rx - cs * ry
-            px += r00 * dx + r01 * dy
-            py_ += r10 * dx + r11 * dy
-            pz += r20 * dx + r21 * dy
-            r00, r01 = cs * r00 + sn * r01, cs * r01 - sn * r00
-            r10, r11 = cs * r10 + sn * r11, cs * r11 - sn * r10
-            r20, r21 = cs * r20 + sn * r21, cs * r21 - sn * r20
-            continue
-        if code == 2:          # about y: columns 0, 2
-            t = sg * th
-            cs, sn = cos(t), sin(t)
-            dx, dz = rx - cs * rx - sn * rz, rz + sn * rx - cs * rz
-            px += r00 * dx + r02 * dz
-            py_ += r10 * dx + r12 * dz
-            pz += r20 * dx + r22 * dz
-            r00, r02 = cs * r00 - sn * r02, sn * r00 + cs * r02
-            r10, r12 = cs * r10 - sn * r12, sn * r10 + cs * r12
-            r20, r22 = cs * r20 - sn * r22, sn * r20 + cs * r22
-            continue
-        if code == 1:          # about x: columns 1, 2
-            t = sg * th
-            cs, sn = cos(t), sin(t)
-            dy, dz = ry - cs * ry + sn * rz, rz - sn * ry - cs * rz
-            px += r01 * dy + r02 * dz
-            py_ += r11 * dy + r12 * dz
-            pz += r21 * dy + r22 * dz
-            r01, r02 = cs * r01 + sn * r02, cs * r02 - sn * r01
-            r11, r12 = cs * r11 + sn * r12, cs * r12 - sn * r11
-            r21, r22 = cs * r21 + sn * r22, cs * r22 - sn * r21
-            continue
-        if rev:
-            wx, wy, wz = w
-            s, cc = math.sin(th), 1.0 - math.cos(th)
-            ts = th - s
-            a00 = 1.0 + cc * (wx * wx - 1.0)
-            a11 = 1.0 + cc * (wy * wy - 1.0)
-            a22 = 1.0 + cc * (wz * wz - 1.0)
-            a01 = cc * wx * wy - s * wz
-            a10 = cc * wx * wy + s * wz
-            a02 = cc * wx * wz + s * wy
-            a20 = cc * wx * wz - s * wy
-            a12 = cc * wy * wz - s * wx
-            a21 = cc * wy * wz + s * wx
-            tx = th * v[0] + cc * kv[0] + ts * k2v[0]
-            ty = th * v[1] + cc * kv[1] + ts * k2v[1]
-            tz = th * v[2] + cc * kv[2] + ts * k2v[2]
-            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
-                           r10 * tx + r11 * ty + r12 * tz + py_,
-                           r20 * tx + r21 * ty + r22 * tz + pz)
-            r00, r01, r02 = (r00 * a00 + r01 * a10 + r02 * a20, r00 * a01 + r01 * a11
-                             + r02 * a21, r00 * a02 + r01 * a12 + r02 * a22)
-            r10, r11, r12 = (r10 * a00 + r11 * a10 + r12 * a20, r10 * a01 + r11 * a11
-                             + r12 * a21, r10 * a02 + r11 * a12 + r12 * a22)
-            r20, r21, r22 = (r20 * a00 + r21 * a10 + r22 * a20, r20 * a01 + r21 * a11
-                             + r22 * a21, r20 * a02 + r21 * a12 + r22 * a22)
-        else:
-            tx, ty, tz = th * v[0], th * v[1], th * v[2]
-            px, py_, pz = (r00 * tx + r01 * ty + r02 * tz + px,
-                           r10 * tx + r11 * ty + r12 * tz + py_,
-                           r20 * tx + r21 * ty + r22 * tz + pz)
-    R, p = _times_home(c, ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)), px, py_, pz)
-    return R, p
-
 
 def fk_and_jacobian(c: Chain, q) -> Tuple[np.ndarray, np.ndarray]:
     """

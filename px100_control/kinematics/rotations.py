@@ -6,31 +6,21 @@ R = Rz(yaw) Ry(pitch) Rx(roll). Quaternions are ROS-ordered (x, y, z, w).
 """
 import numpy as np
 
-from px100_control.kinematics.kernels import quaternion_xyzw
-from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
+from px100_control.kinematics.kernels import euler_sxyz, quaternion_xyzw, rpy_rows
 
 
 def euler_sxyz_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Return the (3, 3) rotation Rz(yaw) Ry(pitch) Rx(roll); angles [rad]."""
-    return rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)
+    return np.array(rpy_rows(float(roll), float(pitch), float(yaw)))
 
 
 def matrix_to_euler_sxyz(R: np.ndarray):
     """
-    Return (roll, pitch, yaw) [rad] of R in the static 'sxyz' convention.
+    Return (roll, pitch, yaw) [rad] of R (3, 3) in the static 'sxyz' convention.
 
     At pitch = +-pi/2 (gimbal lock) roll is set to 0 and yaw absorbs the rest.
     """
-    cy = np.hypot(R[0, 0], R[1, 0])
-    if cy > 1e-9:
-        roll = np.arctan2(R[2, 1], R[2, 2])
-        pitch = np.arctan2(-R[2, 0], cy)
-        yaw = np.arctan2(R[1, 0], R[0, 0])
-    else:
-        roll = 0.0
-        pitch = np.arctan2(-R[2, 0], cy)
-        yaw = np.arctan2(-R[0, 1], R[1, 1])
-    return float(roll), float(pitch), float(yaw)
+    return euler_sxyz(np.asarray(R, dtype=float)[:3, :3].tolist())
 
 
 def quaternion_to_rows(x: float, y: float, z: float, w: float, norm2: float = 1.0):

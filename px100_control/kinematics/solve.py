@@ -34,9 +34,9 @@ from px100_control.errors import InvalidInputError
 from px100_control.kinematics.analytic import get_solver
 from px100_control.kinematics.analytic import px100
 from px100_control.kinematics.ik_types import IkResult
-from px100_control.kinematics.iterative import (chain, fk_and_jacobian, fk_py, solve_dls,
+from px100_control.kinematics.iterative import (chain, fk_and_jacobian, solve_dls,
                                                 solve_newton, Task)
-from px100_control.kinematics.kernels import wrap
+from px100_control.kinematics.kernels import euler_sxyz, fk_py, rpy_rows, wrap
 
 MODES = ('full', 'pitch', 'position')
 METHODS = ('auto', 'analytic', 'dls', 'newton')
@@ -136,25 +136,10 @@ def _first_axis_point(model):
     return (float(w[1] * v[2] - w[2] * v[1]), float(w[2] * v[0] - w[0] * v[2]))
 
 
-def _euler_sxyz(T: np.ndarray):
-    """Return (roll, pitch, yaw) of T's rotation, static 'sxyz' (math-module version)."""
-    (r00, _, _), (r10, _, _), (r20, r21, r22) = T[:3, :3].tolist()
-    cy = math.hypot(r00, r10)
-    if cy > 1e-9:
-        return math.atan2(r21, r22), math.atan2(-r20, cy), math.atan2(r10, r00)
-    (_, r01, _), (_, r11, _) = T[:2, :3].tolist()
-    return 0.0, math.atan2(-r20, cy), math.atan2(-r01, r11)
-
-
 def _pose_sxyz(p, roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Return the (4, 4) pose Rz(yaw) Ry(pitch) Rx(roll) at position p."""
-    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr, p[0]],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr, p[1]],
-        [-sp, cp * sr, cp * cr, p[2]],
-        [0.0, 0.0, 0.0, 1.0]])
+    """Return the (4, 4) pose Rz(yaw) Ry(pitch) Rx(roll) [rad] at position p [m]."""
+    r0, r1, r2 = rpy_rows(roll, pitch, yaw)
+    return np.array([r0 + [p[0]], r1 + [p[1]], r2 + [p[2]], [0.0, 0.0, 0.0, 1.0]])
 
 
 def pitch_target(model, T: np.ndarray):
@@ -167,7 +152,7 @@ def pitch_target(model, T: np.ndarray):
     n = model.dof
     if n >= 6:
         return T, {'unreachable_roll': 0.0, 'unreachable_yaw': 0.0}
-    r, p, y = _euler_sxyz(T)
+    r, p, y = euler_sxyz(T[:3, :3].tolist())
     if abs(r) > math.pi / 2:
         r, p, y = wrap(r + math.pi), wrap(math.pi - p), wrap(y + math.pi)
     a = target_azimuth(model, T[:3, 3])
@@ -730,12 +715,10 @@ def solve_pitch_scalar(model, x: float, y: float, z: float, R, q_seed: Sequence[
     solver = scalar_pitch_solver(model)
     if solver is None:
         return None
-    (r00, _, _), (r10, _, _), (r20, r21, r22) = R
-    cy = math.hypot(r00, r10)
-    if cy <= 1e-9:
+    if math.hypot(R[0][0], R[1][0]) <= 1e-9:       # on the Euler singularity (pitch +-pi/2)
         return None
     pi = math.pi
-    roll, pitch, yaw = math.atan2(r21, r22), math.atan2(-r20, cy), math.atan2(r10, r00)
+    roll, pitch, yaw = euler_sxyz(R)
     if abs(roll) > pi / 2:
         roll, pitch, yaw = wrap(roll + pi), wrap(pi - pitch), wrap(yaw + pi)
     a = target_azimuth(model, (x, y, z))

@@ -2,9 +2,9 @@
 Solvers for the standard equation types of closed-form inverse geometric models.
 
 The eight types of Khalil & Dombre (*Modeling, Identification and Control of Robots*,
-section 7.5), the catalogue from which hand-made inverse models such as the RRRP robot of seed
-002 are assembled. Unknowns: ``q``/``qi``/``qj`` are angles [rad], ``r`` a prismatic length [m];
-every other symbol is a known coefficient.
+section 7.5), the catalogue from which hand-made inverse models such as the RRRP arm's
+(``analytic/rrrp.py``) are assembled. Unknowns: ``q``/``qi``/``qj`` are angles [rad], ``r``
+a prismatic length [m]; every other symbol is a known coefficient.
 
 | type | equations |
 | --- | --- |

@@ -67,9 +67,9 @@ def render_workspace_png(model, path: str, samples: int = 20000, seed: int = 0) 
     Side view (radial distance from the first joint axis vs height) and top view of sampled
     reachable positions; px100-family arms also get the torus bounds at pitch 0.
     """
-    import matplotlib
+    import matplotlib  # optional: plots only (matplotlib takes seconds to import)
     matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # optional: after use('Agg')
 
     P = sample_workspace(model, samples, seed)
     r = np.hypot(P[:, 0], P[:, 1])

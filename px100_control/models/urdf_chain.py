@@ -17,7 +17,7 @@ _ACTUATED = ('revolute', 'continuous', 'prismatic')
 
 def load_urdf(urdf_xml: str):
     """Return a yourdfpy.URDF parsed from XML text (no meshes); raise RobotModelError."""
-    import yourdfpy
+    import yourdfpy  # optional: with trimesh ~0.5 s to import, only URDF robots need it
     try:
         return yourdfpy.URDF.load(io.StringIO(urdf_xml), build_scene_graph=False,
                                   load_meshes=False, load_collision_meshes=False)

@@ -23,6 +23,7 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
+from px100_control.kinematics.rotations import matrix_to_euler_sxyz
 from px100_control.models.robot_model import RobotModel
 
 ROD_MASS_PER_M = 0.5
@@ -39,16 +40,6 @@ def _f(x: float) -> str:
 
 def _vec(v) -> str:
     return ' '.join(_f(x) for x in v)
-
-
-def rpy_from_matrix(R: np.ndarray) -> np.ndarray:
-    """Return URDF fixed-axis roll, pitch, yaw [rad] with R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    cp = float(np.hypot(R[0, 0], R[1, 0]))
-    if cp > 1e-9:
-        return np.array([np.arctan2(R[2, 1], R[2, 2]), np.arctan2(-R[2, 0], cp),
-                         np.arctan2(R[1, 0], R[0, 0])])
-    # gimbal lock (pitch = +-pi/2): roll and yaw are coupled; put it all into yaw (roll = 0)
-    return np.array([0.0, np.copysign(np.pi / 2.0, -R[2, 0]), np.arctan2(-R[0, 1], R[1, 1])])
 
 
 def _closest_point_on_axis(omega: np.ndarray, v: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -128,7 +119,7 @@ def _cylinder_visual(start: np.ndarray, end: np.ndarray, radius: float, material
     return [
         f'{indent}<visual>',
         f'{indent}  <origin xyz="{_vec((start + end) / 2.0)}" '
-        f'rpy="{_vec(rpy_from_matrix(R))}"/>',
+        f'rpy="{_vec(matrix_to_euler_sxyz(R))}"/>',
         f'{indent}  <geometry><cylinder radius="{_f(radius)}" length="{_f(length)}"/></geometry>',
         f'{indent}  <material name="{material}"/>',
         f'{indent}</visual>',
@@ -208,7 +199,7 @@ def urdf_from_model(model: RobotModel) -> str:
     out += ['  <joint name="ee_fixed" type="fixed">',
             f'    <parent link="{parent}"/>',
             f'    <child link="{model.ee_frame}"/>',
-            f'    <origin xyz="{_vec(ee_offset)}" rpy="{_vec(rpy_from_matrix(M[:3, :3]))}"/>',
+            f'    <origin xyz="{_vec(ee_offset)}" rpy="{_vec(matrix_to_euler_sxyz(M[:3, :3]))}"/>',
             '  </joint>',
             f'  <link name="{model.ee_frame}">']
     out += _sphere_visual(np.zeros(3), 0.01, 'tool_orange', '    ')
@@ -268,5 +259,5 @@ def _gripper_xml(model: RobotModel) -> List[str]:
     return lines
 
 
-__all__ = ['urdf_from_model', 'joint_origins', 'rpy_from_matrix', 'link_name',
+__all__ = ['urdf_from_model', 'joint_origins', 'link_name',
            'ROD_MASS_PER_M', 'MOTOR_MASS']

@@ -1,12 +1,23 @@
 """
 The wire module's CDR checked against rclpy: the nodes use the fast path only when it agrees.
 
-``matches_rclpy`` (JointState and DiagnosticStatus writers), ``trajectory_shape_matches_rclpy``
-and ``pose_stamped_matches_rclpy`` compare :mod:`px100_control.wire.cdr` with rclpy's
-serializer of the running middleware on sample messages.
+``matches_rclpy`` (JointState and DiagnosticStatus writers), ``trajectory_shape_matches_rclpy``,
+``pose_stamped_matches_rclpy`` and ``string_matches_rclpy`` (the recorder's std_msgs/String,
+through ``string_writer``) compare :mod:`px100_control.wire.cdr` with rclpy's serializer of the
+running middleware on sample messages. Not ``tf_message``: rclpy cannot check TFMessage without
+tf2_msgs (not a dependency), and its bytes only go into bags; test/bag/test_bag_tf.py checks
+them against rosbags and mcap_ros2 instead.
 """
+from typing import Callable
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
 from px100_control.wire.cdr import (diagnostic_status, JointStateWriter, read_pose_stamped,
-                                    trajectory_shape)
+                                    string_message, trajectory_shape)
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 
 def matches_rclpy() -> bool:
@@ -17,9 +28,6 @@ def matches_rclpy() -> bool:
     the sample messages: odd-length strings, none / one / several positions, two frames.
     (rclpy's own serializer leaves padding bytes uninitialised, so bytes are not compared.)
     """
-    from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-    from rclpy.serialization import deserialize_message
-    from sensor_msgs.msg import JointState
     names = ['waist', 'shoulder', 'elbow', 'wrist_angle']
     for frame in ('', 'px100/base_link'):
         writer = JointStateWriter(names, frame)
@@ -42,8 +50,6 @@ def matches_rclpy() -> bool:
 
 def trajectory_shape_matches_rclpy() -> bool:
     """Return True when :func:`trajectory_shape` reads rclpy's serialization of samples right."""
-    from rclpy.serialization import serialize_message
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
     for frame, names, counts in (('', [], []), ('px100/base_link', ['waist', 'elbow'],
                                                 [(2, 2, 0, 0), (2, 0, 2, 1), (0, 0, 0, 3)]),
                                  ('x', ['a', 'odd_len', ''], [(3, 0, 0, 0)] * 3)):
@@ -66,8 +72,6 @@ def trajectory_shape_matches_rclpy() -> bool:
 
 def pose_stamped_matches_rclpy() -> bool:
     """Return True when :func:`read_pose_stamped` reads rclpy's serialization of samples right."""
-    from geometry_msgs.msg import PoseStamped
-    from rclpy.serialization import serialize_message
     for frame in ('', 'px100/base_link', 'odd'):
         msg = PoseStamped()
         msg.header.stamp.sec, msg.header.stamp.nanosec = -3, 77
@@ -80,5 +84,25 @@ def pose_stamped_matches_rclpy() -> bool:
     return True
 
 
+def string_matches_rclpy() -> bool:
+    """Return True when rclpy reads :func:`string_message` bytes back as the same String."""
+    for text in ('', 'x', 'odd', '<robot name="px100"/>\n', 'ünïcode →'):
+        if deserialize_message(string_message(text), String) != String(data=text):
+            return False
+    return True
+
+
+def rclpy_string_message(text: str) -> bytes:
+    """Return rclpy's serialization of a std_msgs/String (the writer when the check fails)."""
+    return serialize_message(String(data=text))
+
+
+def string_writer() -> Callable[[str], bytes]:
+    """Return :func:`string_message` when it agrees with rclpy, else rclpy's serializer."""
+    return string_message if string_matches_rclpy() else rclpy_string_message
+
+
 __all__ = ['matches_rclpy', 'trajectory_shape_matches_rclpy', 'pose_stamped_matches_rclpy',
-           'diagnostic_status', 'JointStateWriter', 'read_pose_stamped', 'trajectory_shape']
+           'string_matches_rclpy', 'string_writer', 'rclpy_string_message',
+           'diagnostic_status', 'JointStateWriter', 'read_pose_stamped', 'string_message',
+           'trajectory_shape']

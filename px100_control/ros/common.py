@@ -11,15 +11,26 @@ prefixes the tf frames (``<robot_name>/base_link``); ``robot_name:=''`` with no 
 the node in ``/`` with unprefixed frames.
 """
 import argparse
+import os
 import signal
+import sys
 from typing import List, Optional, Sequence
 
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
 from px100_control.parameters import COMMON, NodeSchema
 from px100_control.ros.parameter_schema import parameter_descriptor
+import rclpy
+from rclpy import executors
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.utilities import remove_ros_args
+
+try:
+    from rclpy.experimental import EventsExecutor
+except ImportError:             # rclpy older than Jazzy's 7.1: make_executor falls back
+    EventsExecutor = None
 
 #: latched topics (robot_description, trajectory/status)
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
@@ -109,9 +120,6 @@ def parse_cli(description: str, args: Optional[Sequence[str]] = None,
     :param schemas: the parameter schemas of the nodes this executable runs (``--help``)
     :return: (parsed options, the full argv to hand to ``rclpy.init(args=...)``)
     """
-    import sys
-
-    from rclpy.utilities import remove_ros_args
     argv = list(sys.argv if args is None else args)
     epilog = ('ROS arguments: --ros-args -r __ns:=/px100 -p robot_model:=px100 '
               '--params-file config/px100.yaml -r joint_states:=js\n'
@@ -149,20 +157,14 @@ def make_executor(context=None, kind: Optional[str] = None):
     per callback). None of the nodes blocks inside a callback, so a single-threaded executor
     is safe for all of them.
     """
-    import os
-
-    from rclpy import executors
     kind = (kind or os.environ.get('PX100_EXECUTOR') or 'events').strip().lower()
     if kind not in EXECUTOR_KINDS:
         raise ValueError(f'PX100_EXECUTOR must be one of {", ".join(EXECUTOR_KINDS)}, '
                          f'not {kind!r}')
     if kind == 'events':
-        try:
-            from rclpy.experimental import EventsExecutor
-        except ImportError:    # rclpy older than Jazzy's 7.1: fall back
-            kind = 'single'
-        else:
+        if EventsExecutor is not None:
             return EventsExecutor(context=context)
+        kind = 'single'
     if kind == 'single':
         return executors.SingleThreadedExecutor(context=context)
     return executors.MultiThreadedExecutor(context=context)
@@ -214,13 +216,11 @@ def stop_requested() -> bool:
 
 def keep_spinning(context=None) -> bool:
     """Return True while the context is up and no stop signal arrived."""
-    import rclpy
     return rclpy.ok(context=context) and not _STOP_SIGNALS
 
 
 def shutting_down(context=None) -> bool:
     """Return True when an exception is explained by a stop signal or a shut-down context."""
-    import rclpy
     return bool(_STOP_SIGNALS) or not rclpy.ok(context=context)
 
 
@@ -244,9 +244,6 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
     :param done: optional callable(nodes) -> bool, True to stop spinning
     :return: 0 (a stop signal during construction is not an error; other errors propagate)
     """
-    import rclpy
-    from rclpy.executors import ExternalShutdownException
-
     install_stop_signals()
     rclpy.init(args=argv)
     nodes: List[Node] = []

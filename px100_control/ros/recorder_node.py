@@ -54,7 +54,7 @@ from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
 from px100_control.parameters import COMMON, RECORDER
-from px100_control.ros import recorder_registry
+from px100_control.ros import cdr, recorder_registry
 from px100_control.ros.bag_qos import SUBSCRIPTION_DEPTH
 from px100_control.ros.bag_tool import run_bag_tool
 from px100_control.ros.common import LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs
@@ -141,7 +141,8 @@ class RecorderNode(Node):
                                           'robot_model': model_name})
         self.tf = TfRecording(self.bag, self.robot_name, model_name, int(1e9 / float(tf_rate)),
                               joint_positions, world_markers, string_data, self._log,
-                              self.selection.prefix, enabled=write_tf)
+                              self.selection.prefix, enabled=write_tf,
+                              encode_string=cdr.string_writer())
         self.topics = RecorderTopics(self, self.bag, self._selected, lambda: self.tf.enabled,
                                      self.selection.wanted, self._make_callback)
         #: topic -> raw subscription (the client looks up what a Recorder subscribes here)

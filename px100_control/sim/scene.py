@@ -33,6 +33,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.iterative import chain, fk_batch
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.paths import data_path
 import yaml
 
@@ -82,7 +83,7 @@ class SceneBody:
             local = np.array([self.size[0], self.size[0], 0.5 * self.size[1]])
         else:
             return np.full(3, self.size[0])
-        R = rpy_matrix(self.rpy)
+        R = euler_sxyz_to_matrix(*self.rpy)
         return np.abs(R) @ local
 
 
@@ -112,16 +113,6 @@ class Scene:
                 return b
         raise InvalidInputError(f"scene '{self.name}' has no body '{name}' (bodies: "
                                 f"{', '.join(b.name for b in self.bodies)})")
-
-
-def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
-    """Return R = Rz(yaw) Ry(pitch) Rx(roll) (3, 3) of roll, pitch, yaw [rad]."""
-    r, p, y = (float(a) for a in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), \
-        math.cos(y), math.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
 
 
 def rpy_to_quaternion_xyzw(rpy: Sequence[float]) -> Tuple[float, float, float, float]:
@@ -180,13 +171,18 @@ def _numbers(where: str, value, count: Optional[int] = None) -> Tuple[float, ...
     return tuple(out)
 
 
-def _body(where: str, raw, kind: str) -> SceneBody:
+def _check_keys(where: str, raw, allowed: set, not_a_mapping: str) -> None:
+    """Raise InvalidInputError(not_a_mapping) unless raw is a dict, and on keys not allowed."""
     if not isinstance(raw, dict):
-        raise InvalidInputError(f'{where} must be a mapping, not {raw!r}')
-    unknown = sorted(set(raw) - _BODY_KEYS)
+        raise InvalidInputError(not_a_mapping)
+    unknown = sorted(set(raw) - allowed)
     if unknown:
         raise InvalidInputError(f'{where}: unknown key(s) {unknown} (allowed: '
-                                f'{sorted(_BODY_KEYS)})')
+                                f'{sorted(allowed)})')
+
+
+def _body(where: str, raw, kind: str) -> SceneBody:
+    _check_keys(where, raw, _BODY_KEYS, f'{where} must be a mapping, not {raw!r}')
     name = raw.get('name', 'table' if kind == 'table' else None)
     if not isinstance(name, str) or not _NAME.match(name):
         raise InvalidInputError(f'{where}.name must be an identifier (letters, digits, _), '
@@ -245,12 +241,8 @@ def parse_scene(data, path: str = '<scene>', robot=None) -> Scene:
     :raises InvalidInputError: naming the field that is wrong
     """
     label = os.path.basename(path)
-    if not isinstance(data, dict):
-        raise InvalidInputError(f'{label}: a scene file must be a mapping, not {type(data)}')
-    unknown = sorted(set(data) - _TOP_KEYS)
-    if unknown:
-        raise InvalidInputError(f'{label}: unknown key(s) {unknown} (allowed: '
-                                f'{sorted(_TOP_KEYS)})')
+    _check_keys(label, data, _TOP_KEYS,
+                f'{label}: a scene file must be a mapping, not {type(data)}')
     name = data.get('name', os.path.splitext(label)[0])
     if not isinstance(name, str) or not name:
         raise InvalidInputError(f'{label}: name must be a string, not {name!r}')

@@ -12,6 +12,8 @@ import tempfile
 import time
 from typing import List, Optional, Sequence
 
+from ament_index_python.packages import get_package_prefix, PackageNotFoundError
+
 PACKAGE = 'px100_control'
 
 
@@ -21,7 +23,6 @@ def executable_path(name: str, package: str = PACKAGE) -> str:
 
     :raises FileNotFoundError: the package is not in the ament index or has no such executable
     """
-    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
     try:
         prefix = get_package_prefix(package)
     except PackageNotFoundError as exc:

@@ -8,6 +8,7 @@ chosen speed. The trail shows the end effector over the last ``trail_s`` seconds
 """
 import bisect
 from dataclasses import dataclass, field
+import sys
 import time
 from typing import Callable, List, Optional, Tuple
 
@@ -128,7 +129,6 @@ def serve_bag(path: str, host: str = '127.0.0.1', port: int = 8080,
 
     A bag the viewer cannot use: one error line and status 1.
     """
-    import sys
     try:
         timeline = load_bag(path, namespace)
     except BagError as exc:

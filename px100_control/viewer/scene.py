@@ -17,10 +17,12 @@ connects gets everything redrawn.
 """
 import io
 import threading
+import time
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from px100_control.kinematics.rotations import matrix_to_quaternion
 from px100_control.viewer.state import ViewerState
 
 #: buttons of the controls panel: (action name, label)
@@ -38,13 +40,6 @@ def _wxyz(quat_xyzw: Sequence[float]) -> Tuple[float, float, float, float]:
     return (w, x, y, z)
 
 
-def _quat_xyzw(rot: np.ndarray) -> Tuple[float, float, float, float]:
-    """Return the unit quaternion (x, y, z, w) of a 3x3 rotation matrix."""
-    import viser.transforms as vtf
-    w, x, y, z = vtf.SO3.from_matrix(np.asarray(rot, dtype=float)).wxyz
-    return (float(x), float(y), float(z), float(w))
-
-
 def _rgb255(rgba: Sequence[float]) -> Tuple[int, int, int]:
     return tuple(int(round(255 * min(1.0, max(0.0, float(c))))) for c in rgba[:3])
 
@@ -57,7 +52,7 @@ class UrdfKinematics:
     """
 
     def __init__(self, urdf_xml: str, load_meshes: bool = False):
-        import yourdfpy
+        import yourdfpy  # optional: with trimesh ~0.5 s to import, loaded with a URDF
         try:
             self.urdf = yourdfpy.URDF.load(
                 io.BytesIO(urdf_xml.encode('utf-8')), build_scene_graph=True,
@@ -79,7 +74,7 @@ class UrdfKinematics:
             if cfg:
                 self.urdf.update_cfg(cfg)
             T = self.urdf.get_transform(self.ee, self.base)
-        return tuple(float(v) for v in T[:3, 3]), _quat_xyzw(T[:3, :3])
+        return tuple(float(v) for v in T[:3, 3]), matrix_to_quaternion(T[:3, :3])
 
 
 class ViewerScene:
@@ -97,7 +92,7 @@ class ViewerScene:
                  arm_joints: Sequence[Tuple[str, float, float]] = (),
                  actions: Optional[Callable] = None, title: str = 'px100_control',
                  server=None):
-        import viser
+        import viser  # optional: ~1 s to import, loaded with the scene
         self.server = server or viser.ViserServer(host=host, port=port, label=title,
                                                   verbose=False)
         self.read_only = bool(read_only)
@@ -153,7 +148,6 @@ class ViewerScene:
             self.gizmo.disable_rotations = not self.orientation_box.value
 
     def _now(self) -> float:
-        import time
         return time.monotonic()
 
     def _user(self, action: str, **values) -> None:
@@ -213,7 +207,7 @@ class ViewerScene:
 
     def load_robot(self, state: ViewerState) -> None:
         """(Re)load the robot of state.urdf_xml; a bad URDF is reported in state.robot_error."""
-        from viser.extras import ViserUrdf
+        from viser.extras import ViserUrdf  # optional: viser is loaded with the scene
         with self._lock:
             if self._urdf_vis is not None:
                 self._urdf_vis.remove()

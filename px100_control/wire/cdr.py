@@ -12,9 +12,12 @@ sequences a uint32 count and the elements.
 - ``trajectory_shape``: a JointTrajectory's stamp, joint names and array lengths without its
   values (the trajectory server refuses a malformed goal before deserializing it).
 - ``tf_message``: tf2_msgs/TFMessage bytes for bags (no tf2_msgs needed).
+- ``string_message``: std_msgs/String bytes (the robot_description a recorder adds to a bag).
 
-``ros/cdr.py`` checks these against rclpy's serializer of the running middleware at start; the
-nodes use the fast path only when it agrees.
+``ros/cdr.py`` checks the writers and readers against rclpy's serializer of the running
+middleware at start; the nodes use them only when they agree. ``tf_message`` is the exception:
+rclpy has no TFMessage type without tf2_msgs, which is not a dependency; its bytes go only into
+bags, and test/bag/test_bag_tf.py checks them against rosbags' and mcap_ros2's serializers.
 """
 import struct
 from typing import Iterable, Optional, Sequence, Tuple
@@ -31,6 +34,11 @@ def cdr_string(text: str, offset: int) -> bytes:
     """Return the CDR bytes of a string written at payload offset ``offset`` (with padding)."""
     data = text.encode('utf-8', 'replace') + b'\x00'   # a lone surrogate becomes '?'
     return b'\x00' * _pad(offset, 4) + _U32.pack(len(data)) + data
+
+
+def string_message(text: str) -> bytes:
+    """Return the CDR bytes of a std_msgs/String (encapsulation header, length, text, NUL)."""
+    return ENCAPSULATION + cdr_string(text, 0)
 
 
 class JointStateWriter:

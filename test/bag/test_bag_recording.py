@@ -12,10 +12,11 @@ from px100_control.bag.reader import BagReader
 from px100_control.bag.recording import (CONTRACT_TOPICS, default_output_dir, StopConditions,
                                          TopicSelection)
 from px100_control.bag.tf import TF_TYPE
-from px100_control.bag.tf_recording import string_message, TF_BACKLOG, TfRecording
+from px100_control.bag.tf_recording import TF_BACKLOG, TfRecording
 from px100_control.bag.world import WorldMarker
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
+from px100_control.wire.cdr import string_message
 import pytest
 
 ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']

@@ -1,11 +1,13 @@
 """/tf from joint states through the URDF: agrees with the robot model, strict CDR bytes."""
 from bag_support import decode, TYPESTORE
+from hypothesis import given, settings, strategies as st
 from mcap_ros2._dynamic import serialize_dynamic
 import numpy as np
 from px100_control.bag.msgdefs import message_definition
 from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
 from px100_control.models.registry import load_robot
 from px100_control.models.urdf_prefix import prefix_urdf
+from px100_control.wire.cdr import tf_message
 import pytest
 
 
@@ -83,3 +85,20 @@ def test_prefix_and_missing_joints():
                                model.fk(np.zeros(4)), atol=1e-12)
     values = tree.joint_values({'waist': float('nan')})
     assert values['waist'] == 0.0
+
+
+_frame = st.text(st.characters(codec='utf-8', exclude_characters='\x00'), max_size=9)
+_num = st.floats(allow_nan=False, allow_infinity=False, width=64)
+_entry = st.tuples(_frame, _frame, st.tuples(_num, _num, _num), st.tuples(_num, _num, _num, _num))
+
+
+@settings(max_examples=200, deadline=None)
+@given(entries=st.lists(_entry, max_size=5),
+       sec=st.integers(-2 ** 31, 2 ** 31 - 1), nanosec=st.integers(0, 10 ** 9 - 1))
+def test_tf_message_bytes_equal_rosbags_for_any_frames(entries, sec, nanosec):
+    """wire.cdr.tf_message (no rclpy check: tf2_msgs is not installed) equals rosbags' bytes."""
+    data = tf_message(entries, sec, nanosec)
+    msg = decode(data, TF_TYPE)
+    assert bytes(TYPESTORE.serialize_cdr(msg, TF_TYPE)) == data
+    assert [(t.header.frame_id, t.child_frame_id) for t in msg.transforms] == \
+        [(p, c) for p, c, _, _ in entries]

@@ -5,6 +5,7 @@ from px100_control.ros import cdr
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 
@@ -97,3 +98,12 @@ def test_pose_stamped_reader_matches_rclpy():
     assert read_pose_stamped(raw)[:3] == (0, 0, 'px100/base_link')
     assert read_pose_stamped(b'\x00\x00' + raw[2:]) is None        # big-endian header
     assert read_pose_stamped(raw[:40]) is None                       # truncated
+
+
+@settings(max_examples=200, deadline=None)
+@given(text=st.text(st.characters(codec='utf-8', exclude_characters='\x00'), max_size=40))
+def test_string_writer_matches_rclpy(text):
+    """The recorder's std_msgs/String bytes read back by rclpy; the fallback writer agrees."""
+    assert cdr.string_matches_rclpy() and cdr.string_writer() is cdr.string_message
+    assert deserialize_message(cdr.string_message(text), String).data == text
+    assert deserialize_message(cdr.rclpy_string_message(text), String).data == text

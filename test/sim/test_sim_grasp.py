@@ -11,9 +11,10 @@ import math
 import numpy as np
 from px100_control.control.simulator import ArmSimulator
 from px100_control.errors import InvalidInputError
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
-from px100_control.sim.scene import available_scenes, load_scene, rpy_matrix
+from px100_control.sim.scene import available_scenes, load_scene
 import pytest
 
 STRONG, WEAK = -0.4, -0.25        # gripper efforts [N*m] (250 and 158 PWM)
@@ -31,7 +32,7 @@ def scene(px100):
 
 def _ik(sim, p, pitch=math.pi / 2):
     T = np.eye(4)
-    T[:3, :3] = rpy_matrix((0.0, pitch, math.atan2(p[1], p[0])))
+    T[:3, :3] = euler_sxyz_to_matrix(0.0, pitch, math.atan2(p[1], p[0]))
     T[:3, 3] = p
     result = solve_ik(sim.model, T, mode='pitch', q_seed=sim.positions())
     assert result.success, result.reason

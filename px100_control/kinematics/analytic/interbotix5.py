@@ -171,6 +171,26 @@ def rows_of(T) -> Tuple[list, list]:
     return [L[0][:3], L[1][:3], L[2][:3]], [L[0][3], L[1][3], L[2][3]]
 
 
+def pitch_grid_candidates(solve_pose, g, p, count: int) -> list:
+    """
+    Return the branches ``solve_pose(g, R, p)`` of ``count`` poses at position p [m].
+
+    The 'position' mode's candidates: tool roll 0, the tool x axis along the azimuth of p (0
+    on the z axis), pitched by ``count`` angles evenly over [-pi, pi): R = Rz(azimuth)
+    Ry(pitch), given as 3 rows of 3 floats.
+    """
+    x, y, z = (float(v) for v in p[:3])
+    a = math.atan2(y, x) if x * x + y * y > 1e-24 else 0.0
+    ca, sa = math.cos(a), math.sin(a)
+    out: list = []
+    for k in range(count):
+        pitch = -math.pi + 2.0 * math.pi * k / count
+        cp, sp = math.cos(pitch), math.sin(pitch)
+        out += solve_pose(g, [[ca * cp, -sa, ca * sp], [sa * cp, ca, sa * sp], [-sp, 0.0, cp]],
+                          [x, y, z])
+    return out
+
+
 def _solve_pose(g: ArmPlane, R, p) -> List[List[float]]:
     """Return the closed-form branches of a pose: R 3 rows of 3, p (x, y, z) [m]."""
     (r00, r01, r02), (r10, r11, r12), (r20, _, _) = R
@@ -207,18 +227,8 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
         return np.array(_solve_pose(g, *rows_of(T)), dtype=float).reshape(-1, 5)
     if mode != 'position':
         raise ValueError(f'unknown IK mode {mode!r}')
-    p = T[:3, 3]
-    a = math.atan2(p[1], p[0]) if p[0] * p[0] + p[1] * p[1] > 1e-24 else 0.0
-    out = []
-    ca, sa = math.cos(a), math.sin(a)
-    for k in range(_POSITION_GRID):
-        pitch = -math.pi + 2.0 * math.pi * k / _POSITION_GRID
-        cp, sp = math.cos(pitch), math.sin(pitch)
-        Tk = np.eye(4)
-        Tk[:3, :3] = [[ca * cp, -sa, ca * sp], [sa * cp, ca, sa * sp], [-sp, 0.0, cp]]
-        Tk[:3, 3] = p
-        out += _solve_pose(g, *rows_of(Tk))
-    return np.array(out, dtype=float).reshape(-1, 5)
+    Q = pitch_grid_candidates(_solve_pose, g, T[:3, 3], _POSITION_GRID)
+    return np.array(Q, dtype=float).reshape(-1, 5)
 
 
 @functools.lru_cache(maxsize=64)
@@ -297,7 +307,7 @@ def unreachable_reason(model, T_target: np.ndarray, mode: str) -> str:
     return ''
 
 
-__all__ = ['candidates', 'candidates_rows', 'rows_of', 'unreachable_reason',
-           'position_solutions', 'geometry',
+__all__ = ['candidates', 'candidates_rows', 'rows_of', 'pitch_grid_candidates',
+           'unreachable_reason', 'position_solutions', 'geometry',
            'plane_geometry', 'ArmPlane',
            'waist_angles', 'planar_solutions', 'complete']

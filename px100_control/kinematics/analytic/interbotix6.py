@@ -28,10 +28,11 @@ from typing import List
 import numpy as np
 
 from px100_control.errors import RobotModelError
-from px100_control.kinematics.analytic.interbotix5 import (ArmPlane, planar_solutions,
-                                                           plane_geometry,
-                                                           position_reach_words, reach_words,
-                                                           rows_of, waist_angles)
+from px100_control.kinematics.analytic.interbotix5 import (ArmPlane, pitch_grid_candidates,
+                                                           planar_solutions, plane_geometry,
+                                                           position_reach_words,
+                                                           reach_words, rows_of,
+                                                           waist_angles)
 from px100_control.kinematics.iterative import chain, fk_and_jacobian
 from px100_control.kinematics.kernels import wrap_angle
 from px100_control.kinematics.se3 import log_so3
@@ -161,18 +162,8 @@ def candidates(model, T_target: np.ndarray, mode: str) -> np.ndarray:
         return Q if g.offset <= _EXACT else _refine(model, Q, T)
     if mode != 'position':
         raise ValueError(f'unknown IK mode {mode!r}')
-    p = T[:3, 3]
-    a = math.atan2(p[1], p[0]) if p[0] * p[0] + p[1] * p[1] > 1e-24 else 0.0
-    ca, sa = math.cos(a), math.sin(a)
-    out = []
-    for k in range(_POSITION_PITCHES):
-        pitch = -math.pi + 2.0 * math.pi * k / _POSITION_PITCHES
-        cp, sp = math.cos(pitch), math.sin(pitch)
-        Tk = np.eye(4)
-        Tk[:3, :3] = [[ca * cp, -sa, ca * sp], [sa * cp, ca, sa * sp], [-sp, 0.0, cp]]
-        Tk[:3, 3] = p
-        out += _solve_pose(g, *rows_of(Tk))
-    return np.array(out, dtype=float).reshape(-1, 6)
+    Q = pitch_grid_candidates(_solve_pose, g, T[:3, 3], _POSITION_PITCHES)
+    return np.array(Q, dtype=float).reshape(-1, 6)
 
 
 def candidates_rows(model, T_rows, mode: str = 'full', limits=None) -> List[List[float]]:

@@ -35,6 +35,7 @@ from typing import Optional
 import numpy as np
 
 from px100_control.errors import RobotModelError
+from px100_control.kinematics.kernels import wrap_array
 from px100_control.kinematics.se3 import rot_x, rot_y, rot_z
 
 #: the swivel search may miss narrow feasible intervals: solve_ik keeps its iterative fallback
@@ -175,7 +176,7 @@ def _solve(g: SrsGeometry, fr, R: np.ndarray, psi: np.ndarray, sg: np.ndarray) -
     z7 = np.arctan2(w10, w00)
     t7 = np.where(regular, np.arctan2(s6g * w20, s6g * w21), np.where(w22 > 0, z7, -z7))
     out = np.stack([t1, t2, t3, t4, t5, t6, t7], axis=1) * g.signs
-    return np.remainder(out + np.pi, 2.0 * np.pi) - np.pi
+    return wrap_array(out)
 
 
 def solve_swivel(model, T_target: np.ndarray, psi) -> np.ndarray:
