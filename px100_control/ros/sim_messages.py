@@ -15,15 +15,23 @@ from sensor_msgs.msg import JointState
 SHOWN_NAMES = 20
 
 
-def joint_state(stamp, names: list, sample) -> JointState:
-    """Return the JointState of a simulator sample (``position``, ``velocity``, ``effort``)."""
-    js = JointState()
-    js.header.stamp = stamp
-    js.name = names
-    js.position = sample.position
-    js.velocity = sample.velocity
-    js.effort = sample.effort
-    return js
+def set_stamp(stamp, ns: int):
+    """Set a builtin_interfaces/Time in place to ``ns`` [ns] (>= 0); return it."""
+    stamp.sec, stamp.nanosec = divmod(int(ns), 1_000_000_000)
+    return stamp
+
+
+def fill_joint_state(msg: JointState, stamp_ns: int, sample) -> JointState:
+    """
+    Return ``msg`` restamped [ns] with a simulator sample's values (its names set once).
+
+    The driver reuses one message per topic: building a JointState costs more than filling it.
+    """
+    set_stamp(msg.header.stamp, stamp_ns)
+    msg.position = sample.position
+    msg.velocity = sample.velocity
+    msg.effort = sample.effort
+    return msg
 
 
 def pose_stamped(stamp, frame_id: str, position, quaternion_xyzw) -> PoseStamped:

@@ -4,7 +4,9 @@ The world's messages: :class:`~px100_control.bag.world.WorldMarker` <-> visualiz
 ``marker_array`` builds the ``world/markers`` MarkerArray the sim_driver publishes (one Marker per
 body: ``ns`` objects | fixtures | table, ``id`` stable, ``text`` = the body's name, CUBE /
 CYLINDER / SPHERE, ``scale`` full extents [m], ``color`` rgba, pose in ``frame_id``, frame-locked
-false, lifetime 0 = forever); ``markers_of`` reads one back (client, recorder).
+false, lifetime 0 = forever), ``update_marker_array`` restamps it and moves its movable bodies
+(the driver builds the messages once per scene); ``markers_of`` reads one back (client,
+recorder).
 """
 from typing import List, Sequence
 
@@ -34,6 +36,22 @@ def marker_msg(m: WorldMarker, stamp: Time, frame_id: str = '') -> Marker:
 def marker_array(markers: Sequence[WorldMarker], stamp: Time, frame_id: str = '') -> MarkerArray:
     """Return the MarkerArray of the world's bodies (stamp and frame on every marker)."""
     return MarkerArray(markers=[marker_msg(m, stamp, frame_id) for m in markers])
+
+
+def update_marker_array(msg: MarkerArray, stamp: Time, poses) -> None:
+    """
+    Restamp a MarkerArray of :func:`marker_array` in place and move some of its markers.
+
+    :param poses: (marker index, (position xyz [m], quaternion xyzw)) pairs
+    """
+    markers = msg.markers
+    for marker in markers:
+        marker.header.stamp = stamp
+    for index, (position, quaternion) in poses:
+        pose = markers[index].pose
+        p, o = pose.position, pose.orientation
+        p.x, p.y, p.z = position
+        o.x, o.y, o.z, o.w = quaternion
 
 
 def markers_of(msg: MarkerArray) -> List[WorldMarker]:
