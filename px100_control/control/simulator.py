@@ -101,7 +101,8 @@ class SimConfig:
         dynamics every step)
     :param default_damping/default_friction: for joints whose URDF has no <dynamics>
     :param servo_overrides: ServoSpec fields to change for every joint (e.g. armature)
-    :param object_width: width of an object between the fingers [m] (0 = none)
+    :param object_width: a finger stop at width / 2 [m] (0 = off; no object, see
+        :meth:`ArmSimulator.set_object_width`)
     :param ff_timeout: a setpoint's velocity feed-forward expires after this [s]
     """
 
@@ -706,10 +707,12 @@ class ArmSimulator:
 
     def set_object_width(self, width: float) -> None:
         """
-        Put a virtual object of this width [m] between the fingers (0 removes it).
+        Stop the closing fingers at ``width / 2`` [m] wherever the arm is (0 removes the stop).
 
-        Kept for the ``object_width`` parameter: the fingers stop at ``width / 2`` wherever the
-        arm is. Scene objects (``scene``) are real bodies grasped by contact instead.
+        The driver's ``object_width`` parameter (docs/ros_interfaces.md): a way to check the
+        gripper's blocked behaviour (the servo keeps squeezing) without a scene. It is not an
+        object: nothing is carried and :meth:`held_object` does not report it; scene objects
+        are grasped by contact only.
         """
         if self.linkage is None:
             if width:

@@ -40,7 +40,7 @@ with it and publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` of simu
 
 Parameters (defaults in config/px100.yaml, validated live): ``publish_rate`` [Hz],
 ``control_rate`` [Hz], ``real_time_factor``, ``publish_clock``, ``clock_rate`` [Hz],
-``dynamics_divider``, ``object_width`` [m] (an object between the fingers, 0 = none),
+``dynamics_divider`` (ignored), ``object_width`` [m] (a finger stop, no object; 0 = off),
 ``scene`` (a name in config/scenes, a path to a .yaml, '' = no objects; a bad one is refused
 with the loader's reason: at start the node exits non-zero), ``world_rate`` [Hz],
 ``gains_units`` (read-only: ``si`` or ``dynamixel``: p/i/d as Position P/I/D Gain registers),
