@@ -64,8 +64,7 @@ from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import SIM_DRIVER
 from px100_control.ros.peers import new_duplicates
 from px100_control.ros.sim_joint_parameters import JointParameters
-from px100_control.ros.sim_messages import (error_array, fill_joint_state, pose_stamped,
-                                            set_stamp, shown_names)
+from px100_control.ros.sim_messages import error_array, pose_stamped, shown_names, StateMessages
 from px100_control.ros.sim_physics import PhysicsThread, YieldingLock
 from px100_control.ros.world import WorldPublisher
 from px100_control.sim.driver_parameters import (core_change_error, core_error, CORE_PARAMS,
@@ -138,7 +137,7 @@ class SimDriverNode(Node):
     def _make_interfaces(self, world_rate: float) -> None:
         """Create the publishers, the setpoint subscription, the services and the world."""
         self.pub_js = self.create_publisher(JointState, robot_topic(self, 'joint_states'), 10)
-        self._js, self._clock_msg = JointState(name=self._names), ClockMsg()  # reused
+        self._out = StateMessages(self._names)        # joint_states and /clock to publish
         self.pub_ee = self.create_publisher(PoseStamped, robot_topic(self, 'ee_pose'), 10)
         self.pub_desc = self.create_publisher(String, robot_topic(self, 'robot_description'),
                                               LATCHED_QOS)
@@ -248,12 +247,11 @@ class SimDriverNode(Node):
 
     # --- publishing ----------------------------------------------------------------------------
     def _publish_clock(self, stamp_ns: int) -> None:
-        set_stamp(self._clock_msg.clock, stamp_ns)
-        self.pub_clock.publish(self._clock_msg)
+        self.pub_clock.publish(self._out.clock(stamp_ns))
 
     def _publish_state(self, stamp_ns: int) -> None:
         self.publish_times.append(time.monotonic())
-        self.pub_js.publish(fill_joint_state(self._js, stamp_ns, self.sim.joint_state()))
+        self.pub_js.publish(self._out.joint_state(stamp_ns, self.sim.joint_state()))
         self.world.tick(self.sim, stamp_ns)
         if self.pub_ee.get_subscription_count():  # forward kinematics only when someone listens
             self.pub_ee.publish(pose_stamped(time_from_ns(stamp_ns), self._base_frame,
