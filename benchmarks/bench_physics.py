@@ -1,20 +1,31 @@
 """
-Physics step cost side by side: the MuJoCo engine with an object held vs the old exact step.
+Physics speed side by side, in one run: the 1 kHz step and the unthrottled ``sim_driver``.
 
-All at 1 kHz on the PX100, in one process, timed in interleaved rounds (A B C A B C ...) so a
-busy machine slows every variant alike; the median round is reported:
+1. Step cost, all at 1 kHz on the PX100 in this process, timed in interleaved rounds
+   (A B C A B C ...) so a busy machine slows every variant alike; the median round is reported:
 
-- ``oracle_exact``: the hand-written plant (test/sim/oracle_simulator.py, imported by path:
-  PID + servo + rigid-body dynamics every step, semi-implicit Euler), no objects, the arm moving
-  between two poses and the gripper opening and closing;
-- ``mujoco_empty``: ArmSimulator (PID + servo + MuJoCo) without a scene, same commands;
-- ``mujoco_held``: ArmSimulator with the default scene ``pick_place`` after picking the red
-  cube: the waist swings +-45 deg with the cube squeezed between the pads (contacts with the
-  pads, the table under the other objects); the cube is checked to be still held at the end.
+   - ``oracle_exact``: the former hand-written plant (test/sim/oracle_simulator.py, imported by
+     path: PID + servo + rigid-body dynamics every step, semi-implicit Euler), no objects, the
+     arm moving between two poses and the gripper opening and closing;
+   - ``mujoco_empty``: ArmSimulator (PID + servo + MuJoCo) without a scene, same commands;
+   - ``mujoco_held``: ArmSimulator with the default scene ``pick_place`` after picking the red
+     cube: the waist swings +-45 deg with the cube squeezed between the pads (contacts with the
+     pads, the table under the other objects); the cube is checked to be still held at the end.
 
-Per variant: microseconds per step (CPU time of this process) and the real-time factor
-unthrottled (simulated seconds per CPU second). Writes ``benchmarks/results/physics.json``.
-Usage (venv + install sourced): ``python benchmarks/bench_physics.py [--quick]``.
+   Per variant: microseconds per step (CPU time of this process) and simulated seconds per CPU
+   second.
+2. ``sim_driver``: the installed executable at ``real_time_factor`` 0 (as fast as possible;
+   joint_states at 100 Hz and /clock at 250 Hz of simulated time, world/markers at 30 Hz; the
+   arm holding its sleep pose, the objects resting on the table), with the default scene
+   ``pick_place`` and with ``scene:=''``, in alternating windows: simulated seconds per wall
+   second (read from /clock by a subscriber in this process) and per CPU second of the driver
+   process (all its threads, from /proc), the median window of each. On a shared machine the
+   wall figure follows what else runs; the CPU figure is the fairer one.
+
+The load average is stored with the figures, and whether the issue's goals are met: the held
+step costs no more than the former exact step, and the driver with the default scene runs at
+least 20x real time. Writes ``benchmarks/results/physics.json``. Usage (venv + install
+sourced): ``python benchmarks/bench_physics.py [--quick]``.
 """
 import argparse
 import importlib.util
@@ -30,8 +41,9 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'physics.json')
 ORACLE_DIR = os.path.join(ROOT, 'test', 'sim')
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+for path in (ROOT, os.path.join(ROOT, 'benchmarks')):
+    if path not in sys.path:
+        sys.path.insert(0, path)
 
 POSES = ([0.8, 0.3, -0.4, 0.6], [-0.8, -0.6, 0.5, -0.4])
 
@@ -119,12 +131,14 @@ def _time(step, steps: int) -> float:
 
 
 def run(quick: bool = False) -> dict:
-    """Return the benchmark figures (run_all.py interface; quick: 1 s per round, 3 rounds)."""
-    return measure(1.0, 3) if quick else measure(3.0, 5)
+    """Return the figures and their table (run_all.py interface; quick: shorter windows)."""
+    result = measure(1.0, 3, 3.0, 1) if quick else measure(2.0, 5, 5.0, 3)
+    result['markdown'] = _table(result)
+    return result
 
 
-def measure(seconds: float, rounds: int) -> dict:
-    """Return the benchmark figures (see the module docstring)."""
+def _steps(seconds: float, rounds: int) -> dict:
+    """Return the step-cost figures (see the module docstring, part 1)."""
     from px100_control.control.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
     model = load_robot('px100')
@@ -141,35 +155,95 @@ def measure(seconds: float, rounds: int) -> dict:
     for _ in range(rounds):
         for name, step in variants.items():
             samples[name].append(_time(step, steps))
-    out = {'load_average': os.getloadavg(), 'steps_per_round': steps, 'rounds': rounds,
+    out = {'steps_per_round': steps, 'rounds': rounds,
            'still_held_at_end': held_sim.held_object()}
     for name, values in samples.items():
         us = statistics.median(values)
-        out[name] = {'us_per_step': round(us, 2), 'real_time_factor': round(1e3 / us, 1),
+        out[name] = {'us_per_step': round(us, 2), 'sim_s_per_cpu_s': round(1e3 / us, 1),
                      'rounds_us': [round(v, 2) for v in values]}
     out['held_vs_oracle'] = round(out['mujoco_held']['us_per_step']
                                   / out['oracle_exact']['us_per_step'], 3)
     return out
 
 
+def _driver(window: float, alternations: int) -> dict:
+    """Return the unthrottled sim_driver figures, default scene and none (part 2)."""
+    from bench_sim_driver import bench_unthrottled
+    runs = {'pick_place': [], 'none': []}
+    for _ in range(alternations):
+        for name in runs:
+            runs[name].append(bench_unthrottled(window, name if name != 'none' else ''))
+    out = {}
+    for name, windows in runs.items():
+        good = [w for w in windows if 'error' not in w]
+        if not good:
+            out[name] = windows[-1]
+            continue
+        out[name] = {key: statistics.median(w[key] for w in good)
+                     for key in ('sim_s_per_wall_s', 'sim_s_per_driver_cpu_s',
+                                 'driver_cpu_share')}
+        out[name]['windows'] = good
+    return out
+
+
+def measure(seconds: float, rounds: int, window: float, alternations: int) -> dict:
+    """
+    Return the figures (see the module docstring).
+
+    :param seconds: simulated seconds per variant and round of the step costs
+    :param rounds: step-cost rounds
+    :param window: wall seconds of one sim_driver window
+    :param alternations: sim_driver windows per scene
+    """
+    load0 = os.getloadavg()
+    out = {'steps': _steps(seconds, rounds),
+           'sim_driver_unthrottled': _driver(window, alternations)}
+    out['load_average'] = {'start': [round(v, 2) for v in load0],
+                           'end': [round(v, 2) for v in os.getloadavg()]}
+    out['cpu_count'] = os.cpu_count()
+    scene = out['sim_driver_unthrottled'].get('pick_place', {})
+    out['goals'] = {
+        'held_step_at_most_former_exact_step': out['steps']['held_vs_oracle'] <= 1.0,
+        'sim_driver_default_scene_20x_per_cpu_s':
+            scene.get('sim_s_per_driver_cpu_s', 0.0) >= 20.0,
+        'sim_driver_default_scene_20x_per_wall_s': scene.get('sim_s_per_wall_s', 0.0) >= 20.0}
+    return out
+
+
+def _table(result: dict) -> str:
+    """Return the figures as a Markdown table."""
+    st, dr = result['steps'], result['sim_driver_unthrottled']
+    rows = ['| physics speed, one run | value |', '| --- | --- |']
+    for name in ('oracle_exact', 'mujoco_empty', 'mujoco_held'):
+        fig = st[name]
+        rows.append(f'| 1 kHz step, {name}: µs (CPU) / simulated s per CPU s | '
+                    f"{fig['us_per_step']} / {fig['sim_s_per_cpu_s']} |")
+    rows.append(f"| held step / former exact step | {st['held_vs_oracle']} "
+                f"(held at the end: {st['still_held_at_end']}) |")
+    for name, label in (('pick_place', 'default scene pick_place'), ('none', 'no scene')):
+        d = dr.get(name, {})
+        rows.append(f'| sim_driver at real_time_factor 0, {label}: simulated s per driver '
+                    f"CPU s / per wall s (CPU share) | {d.get('sim_s_per_driver_cpu_s')} / "
+                    f"{d.get('sim_s_per_wall_s')} ({d.get('driver_cpu_share')}) |")
+    load = result['load_average']
+    rows.append(f"| load average 1/5/15 min at start, end ({result['cpu_count']} cores) | "
+                f"{load['start']}, {load['end']} |")
+    rows.append(f"| goals met | {result['goals']} |")
+    return '\n'.join(rows)
+
+
 def main(argv=None) -> int:
     """Run, print the table and write benchmarks/results/physics.json."""
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('--quick', action='store_true', help='1 s per round, 3 rounds')
+    parser.add_argument('--quick', action='store_true', help='short rounds and windows')
     args = parser.parse_args(argv)
     result = run(args.quick)
-    print(f"load average {result['load_average']}")
-    print(f"{'variant':<14} {'us/step':>9} {'x real time':>12}")
-    for name in ('oracle_exact', 'mujoco_empty', 'mujoco_held'):
-        r = result[name]
-        print(f"{name:<14} {r['us_per_step']:>9.1f} {r['real_time_factor']:>12.1f}")
-    print(f"held / oracle cost: {result['held_vs_oracle']:.2f}; still held at the end: "
-          f"{result['still_held_at_end']}")
+    print(result['markdown'])
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
     with open(RESULTS, 'w', encoding='utf-8') as f:
-        json.dump(result, f, indent=2)
-    ok = result['still_held_at_end'] == 'red_cube'
-    return 0 if ok else 1
+        json.dump({k: v for k, v in result.items() if k != 'markdown'}, f, indent=2)
+    print(f'wrote {RESULTS}')
+    return 0 if result['steps']['still_held_at_end'] == 'red_cube' else 1
 
 
 if __name__ == '__main__':

@@ -1,21 +1,17 @@
 """
-sim_driver speed and timing: simulated seconds per wall second, and publish-period jitter.
+sim_driver timing: publish-period jitter of joint_states at real time.
 
-- ``physics``: ArmSimulator alone (all PX100 joints + gripper, 1 kHz, the arm moving between
-  poses): microseconds per step and simulated seconds per CPU second with ``dynamics_divider``
-  1 and 4 (the MuJoCo plant ignores it: both time the same step; bench_physics.py compares
-  the plant with the former hand-written one);
-- ``unthrottled``: the installed ``sim_driver`` process with ``real_time_factor:=0`` (publishing
-  joint_states/ee_pose at 100 Hz and /clock at 250 Hz of simulated time): simulated seconds per
-  wall second read from /clock, and the process's CPU share over the window;
 - ``jitter``: the ``sim_driver`` process at real time, ``publish_rate`` 100 Hz: period of
   joint_states as received here (monotonic clock at the callback) and as stamped by the driver
   (the nominal sample times: 0 by construction), |period - 10 ms| p50 / p99 / max; and the
   driver's own send times (in-process node, monotonic clock at each publish).
 
-The machine's load average is recorded with the figures: on a shared 2-core machine they vary
-with what else runs. Writes ``benchmarks/results/sim_driver.json``. Usage (venv + install
-sourced, e.g. ``source scripts/env.sh``): ``python benchmarks/bench_sim_driver.py [--quick]``.
+The driver's speed (unthrottled, with and without the default scene) is measured by
+bench_physics.py, side by side with the step costs; :func:`bench_unthrottled` here is the
+measurement it uses. The machine's load average is recorded with the figures: on a shared
+2-core machine they vary with what else runs. Writes ``benchmarks/results/sim_driver.json``.
+Usage (venv + install sourced, e.g. ``source scripts/env.sh``):
+``python benchmarks/bench_sim_driver.py [--quick]``.
 """
 import argparse
 import json
@@ -34,38 +30,12 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
-POSES = ([0.8, 0.3, -0.4, 0.6], [-0.8, -0.6, 0.5, -0.4])
-
 
 def _cpu_seconds(pid: int) -> float:
     """Return user + system CPU seconds of a process (from /proc)."""
     with open(f'/proc/{pid}/stat') as f:
         fields = f.read().rsplit(')', 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
-
-
-def bench_physics(seconds: float) -> dict:
-    """Return per-step cost of the pure simulator, exact and default dynamics."""
-    from px100_control.control.simulator import ArmSimulator, SimConfig
-    from px100_control.models.registry import load_robot
-    model = load_robot('px100')
-    out = {}
-    for div in (1, 4):
-        sim = ArmSimulator(model, SimConfig(dynamics_divider=div))
-        steps = int(seconds * 1000)
-        cpu0, wall0 = time.process_time(), time.perf_counter()
-        for k in range(steps):
-            if k % 1500 == 0:
-                sim.command(list(model.joint_names), POSES[(k // 1500) % 2])
-                sim.command(['gripper'], effort=[0.4 if (k // 1500) % 2 else -0.4])
-            sim.step()
-        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
-        out[f'divider_{div}'] = {
-            'us_per_step_cpu': round(cpu / steps * 1e6, 1),
-            'sim_s_per_cpu_s': round(steps * 1e-3 / cpu, 2),
-            'sim_s_per_wall_s': round(steps * 1e-3 / wall, 2),
-        }
-    return out
 
 
 class _Listener:
@@ -113,15 +83,23 @@ def _window(store, seconds):
     return list(store[n0:])
 
 
-def bench_unthrottled(seconds: float, divider: int) -> dict:
-    """Return simulated s per wall s of the sim_driver process at real_time_factor 0."""
+def bench_unthrottled(seconds: float, scene: str) -> dict:
+    """
+    Return simulated s per wall s and per driver CPU s of sim_driver at real_time_factor 0.
+
+    :param seconds: the measurement window [s of wall time], after the first 50 /clock
+        messages and one more second (start-up excluded)
+    :param scene: the driver's ``scene`` parameter ('' = no objects)
+    """
     from px100_control.tools.processes import NodeProcess
     listener = _Listener()
+    value = scene or "''"
     proc = NodeProcess('sim_driver', ['--ros-args', '-p', 'real_time_factor:=0.0',
-                                      '-p', f'dynamics_divider:={divider}'])
+                                      '-p', f'scene:={value}'])
     try:
         if not listener.wait(listener.clock, 50, 60.0):
             return {'error': 'no /clock from sim_driver', 'log': proc.output()[-2000:]}
+        time.sleep(1.0)
         cpu0 = _cpu_seconds(proc.pid)
         samples = _window(listener.clock, seconds)
         cpu1 = _cpu_seconds(proc.pid)
@@ -130,7 +108,7 @@ def bench_unthrottled(seconds: float, divider: int) -> dict:
         return {'sim_s_per_wall_s': round(sim / wall, 2),
                 'driver_cpu_share': round((cpu1 - cpu0) / seconds, 2),
                 'sim_s_per_driver_cpu_s': round(sim / max(cpu1 - cpu0, 1e-9), 2),
-                'window_s': seconds}
+                'window_s': seconds, 'load_average_1min': round(os.getloadavg()[0], 2)}
     finally:
         proc.stop()
         listener.close()
@@ -186,36 +164,20 @@ def bench_send_jitter(seconds: float) -> dict:
 
 
 def run(quick: bool = False, log=print) -> dict:
-    """Run the three measurements; return the figures."""
+    """Run the jitter measurements; return the figures."""
     load0 = os.getloadavg()[0]
-    figures = {'physics': bench_physics(3.0 if quick else 15.0)}
-    log(f"physics: {figures['physics']}")
-    figures['unthrottled'] = {f'divider_{d}': bench_unthrottled(3.0 if quick else 10.0, d)
-                              for d in (4, 1)}
-    log(f"unthrottled node: {figures['unthrottled']}")
-    figures['jitter_100hz'] = bench_jitter(5.0 if quick else 20.0)
+    figures = {'jitter_100hz': bench_jitter(5.0 if quick else 20.0)}
     log(f"jitter at 100 Hz: {figures['jitter_100hz']}")
     figures['jitter_100hz']['sent'] = bench_send_jitter(5.0 if quick else 20.0)
     log(f"send-side jitter at 100 Hz: {figures['jitter_100hz']['sent']}")
     figures['load_average_1min'] = [round(load0, 2), round(os.getloadavg()[0], 2)]
     figures['cpu_count'] = os.cpu_count()
     figures['quick'] = quick
-    phys = figures['physics']
-    un4 = figures['unthrottled']['divider_4'].get('sim_s_per_wall_s')
-    un1 = figures['unthrottled']['divider_1'].get('sim_s_per_wall_s')
-    eff4 = figures['unthrottled']['divider_4'].get('sim_s_per_driver_cpu_s')
     rec = figures['jitter_100hz'].get('received', {})
     stp = figures['jitter_100hz'].get('stamped', {})
     snt = figures['jitter_100hz'].get('sent', {})
-    exact, default = phys['divider_1'], phys['divider_4']
     figures['markdown'] = '\n'.join([
         '| sim_driver | value |', '| --- | --- |',
-        '| physics, µs per 1 kHz step (exact / default divider 4) | '
-        f'{exact["us_per_step_cpu"]} / {default["us_per_step_cpu"]} |',
-        '| physics, simulated s per CPU s (exact / default) | '
-        f'{exact["sim_s_per_cpu_s"]} / {default["sim_s_per_cpu_s"]} |',
-        f'| unthrottled node, simulated s per wall s (divider 4 / 1) | {un4} / {un1} |',
-        f'| unthrottled node, simulated s per driver CPU s (divider 4) | {eff4} |',
         '| joint_states 100 Hz, received period jitter p50 / p99 [ms] | '
         f'{rec.get("p50_ms")} / {rec.get("p99_ms")} |',
         '| joint_states 100 Hz, send-time period jitter p50 / p99 [ms] | '
@@ -224,13 +186,14 @@ def run(quick: bool = False, log=print) -> dict:
         f'{stp.get("p50_ms")} / {stp.get("p99_ms")} |',
         f'| load average (start, end) on {os.cpu_count()} cores | '
         f'{figures["load_average_1min"]} |',
+        '| unthrottled speed | see physics (bench_physics.py) |',
     ])
     return figures
 
 
 def main(argv=None) -> int:
     """Run the benchmark, print the figures and write benchmarks/results/sim_driver.json."""
-    parser = argparse.ArgumentParser(description='sim_driver speed and publish jitter')
+    parser = argparse.ArgumentParser(description='sim_driver publish jitter')
     parser.add_argument('--quick', action='store_true', help='short windows')
     args = parser.parse_args(argv)
     figures = run(args.quick)

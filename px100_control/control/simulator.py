@@ -101,7 +101,8 @@ class SimConfig:
         dynamics every step)
     :param default_damping/default_friction: for joints whose URDF has no <dynamics>
     :param servo_overrides: ServoSpec fields to change for every joint (e.g. armature)
-    :param object_width: width of an object between the fingers [m] (0 = none)
+    :param object_width: a finger stop at width / 2 [m] (0 = off; no object, see
+        :meth:`ArmSimulator.set_object_width`)
     :param ff_timeout: a setpoint's velocity feed-forward expires after this [s]
     """
 
@@ -368,6 +369,7 @@ class ArmSimulator:
             check_reach(scene, model)
         self.built = build_model(model, scene, 1.0 / config.control_rate)
         self.mj_model = m = self.built.model
+        self._dt = float(m.opt.timestep)
         m.opt.gravity[2] = -float(config.gravity)
         m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
         self.mj_data = mujoco.MjData(m)
@@ -388,7 +390,7 @@ class ArmSimulator:
         self.vel_limit = [min(float(v), s.velocity_limit) if math.isfinite(v) and v > 0
                           else s.velocity_limit
                           for v, s in zip(model.velocity_limits, self.servos)]
-        self._vlim = np.array(self.vel_limit)
+        self._vlim_list = list(self.vel_limit)
         gains = dict(gains or {})
         self.pids = [Pid(gains.get(nm, default_gains(t, s.stall_torque)))
                      for nm, t, s in zip(self.names, model.joint_types, self.servos)]
@@ -418,6 +420,13 @@ class ArmSimulator:
             self._fq, self._fd = b.finger_qpos, b.finger_dof
             self._finger_range = (m.jnt_range[m.dof_jntid[self._fd[0]]].copy(),
                                   m.jnt_range[m.dof_jntid[self._fd[1]]].copy())
+            # step constants: stall [N*m], PWM limit, back-EMF damping [N*m*s/rad]
+            servo = self.gripper_servo
+            self._g_servo = (servo.stall_torque, servo.pwm_limit, servo.back_emf_damping)
+            self._g_velocity_limit = servo.velocity_limit
+            self._finger_max = self.linkage.horn_radius + self.linkage.arm_length - 1e-9
+            self._finger_views = (m.dof_armature, m.dof_damping, m.dof_frictionloss)
+            self._g_reflected = None     # the finger slides' armature, damping, friction
         self._qpos, self._qvel = self.mj_data.qpos, self.mj_data.qvel
         self._qfrc = self.mj_data.qfrc_applied
         if gripper_spec is not None:
@@ -431,6 +440,8 @@ class ArmSimulator:
         self._initial = {o.name: (list(o.position), _wxyz(o.quaternion_xyzw))
                          for o in (scene.objects if scene is not None else ())}
         self._pads = set(b.pad_geoms)
+        self._static_poses = {body.name: (tuple(body.position), tuple(body.quaternion_xyzw))
+                              for body in (scene.statics if scene is not None else ())}
         self._geom_object = {}
         self._static_geoms = set()
         for name, bid in b.bodies.items():
@@ -459,6 +470,7 @@ class ArmSimulator:
     @dt.setter
     def dt(self, value: float) -> None:
         self.mj_model.opt.timestep = float(value)
+        self._dt = float(self.mj_model.opt.timestep)
 
     # --- state -----------------------------------------------------------------------------------
     @property
@@ -695,10 +707,12 @@ class ArmSimulator:
 
     def set_object_width(self, width: float) -> None:
         """
-        Put a virtual object of this width [m] between the fingers (0 removes it).
+        Stop the closing fingers at ``width / 2`` [m] wherever the arm is (0 removes the stop).
 
-        Kept for the ``object_width`` parameter: the fingers stop at ``width / 2`` wherever the
-        arm is. Scene objects (``scene``) are real bodies grasped by contact instead.
+        The driver's ``object_width`` parameter (docs/ros_interfaces.md): a way to check the
+        gripper's blocked behaviour (the servo keeps squeezing) without a scene. It is not an
+        object: nothing is carried and :meth:`held_object` does not report it; scene objects
+        are grasped by contact only.
         """
         if self.linkage is None:
             if width:
@@ -793,21 +807,33 @@ class ArmSimulator:
 
     # --- physics -------------------------------------------------------------------------------
     def step(self) -> None:
-        """Advance the simulation by one control period dt."""
-        m, d = self.mj_model, self.mj_data
-        dt = m.opt.timestep
+        """
+        Advance the simulation by one control period dt.
+
+        The hot loop of the simulator (the driver runs it 1,000 times per simulated second):
+        plain floats and lists, model arrays reached through views cached at construction, and
+        numpy only where MuJoCo needs it. test/sim/test_sim_step_identity.py checks it
+        bit for bit against the plain formulation (test/sim/reference_step.py).
+        """
+        dt = self._dt
         n = self.n
         torque = self.joint_torque
         on = any(torque)
-        q, qd = self.q, self.qd
+        qvel = self._qvel
+        if self._contiguous:
+            q = self._qpos[:n].tolist()
+            qd = qvel[:n].tolist()
+        else:
+            q, qd = self.q, self.qd
         t = self.time
         drive = [0.0] * n
         if on:
             pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
+            consts = self._servo_consts
             for i, mode in enumerate(self._mode_list):
                 if not torque[i]:
                     continue  # this servo coasts
-                stall, lim, back, top = self._servo_consts[i]
+                stall, lim, back, top = consts[i]
                 if mode == 'position':
                     v_ref = qd_ref[i] if t < ff_until[i] else 0.0
                     u = pids[i].step(q_ref[i] - q[i], dt, v_ref - qd[i], v_ref)
@@ -830,20 +856,18 @@ class ArmSimulator:
             self._qfrc[self._arm_dof] = drive
         if self.gripper_name:
             self._gripper_force(dt, self.gripper_torque)
-        mujoco.mj_step(m, d)
-        v = self._qvel[:n] if self._contiguous else None
-        if on and not all(torque):
-            for i, dof in enumerate(self._arm_dof):
-                if torque[i]:
-                    self._qvel[dof] = min(max(self._qvel[dof], -self._vlim[i]), self._vlim[i])
-        elif on:
-            if v is not None:
-                np.clip(v, -self._vlim, self._vlim, out=v)
-            else:
-                self._qvel[self._arm_dof] = np.clip(self._qvel[self._arm_dof], -self._vlim,
-                                                    self._vlim)
+        mujoco.mj_step(self.mj_model, self.mj_data)
         if on:
-            vel = self._qvel[:n].tolist() if self._contiguous else self.qd
+            # speeds held within the servos' Velocity_Limit (while torque is on)
+            vel = qvel[:n].tolist() if self._contiguous else self.qd
+            vlim, dofs = self._vlim_list, self._arm_dof
+            for i in range(n):
+                if torque[i]:
+                    x, lim = vel[i], vlim[i]
+                    if x > lim:
+                        vel[i] = qvel[dofs[i]] = lim
+                    elif x < -lim:
+                        vel[i] = qvel[dofs[i]] = -lim
             self.effort = [x - b * v if tq else 0.0
                            for x, b, v, tq in zip(drive, self._back_emf, vel, torque)]
         else:
@@ -853,65 +877,64 @@ class ArmSimulator:
         self.time = t + dt
 
     def _gripper_force(self, dt: float, on: bool) -> None:
-        m = self.mj_model
-        link, servo = self.linkage, self.gripper_servo
+        link = self.linkage
         fq, fd = self._fq, self._fd
         finger = float(self._qpos[fq[0]])
-        theta = link.angle_from_finger(min(max(finger, 1e-6), link.horn_radius
-                                           + link.arm_length - 1e-9))
+        theta = link.angle_from_finger(min(max(finger, 1e-6), self._finger_max))
         rate = link.finger_rate(theta)
         omega = float(self._qvel[fd[0]]) / rate
         drive = 0.0
         b = self.gripper_damping
         if on:
+            stall, lim, back = self._g_servo
             mode = self.modes.get(self.gripper_name)
             if self.g_mode == 'effort':
-                u = self.g_command * servo.stall_torque if mode == 'duty' else self.g_command
+                u = self.g_command * stall if mode == 'duty' else self.g_command
             elif self.g_mode == 'velocity':
                 u = self.gripper_velocity_pid.step(self.g_ref_vel - omega, dt, 0.0,
                                                    self.g_ref_vel)
             else:
                 u = self.gripper_pid.step(self.g_ref - theta, dt, self.g_ref_vel - omega,
                                           self.g_ref_vel)
-            drive = servo.stall_torque * servo.duty(u)
-            b += servo.back_emf_damping
+            duty = u / stall
+            drive = stall * (lim if duty > lim else (-lim if duty < -lim else duty))
+            b += back
         # horn torque, inertia, damping and friction reflected onto each finger slide
         k = 0.5 / rate
         force = drive * k
-        self._qfrc[fd[0]] = force
-        self._qfrc[fd[1]] = -force
-        arm = (servo.armature + self.gripper_inertia) * k / rate
-        damp = b * k / rate
-        fric = self.gripper_friction * k
-        a, z = fd[0], fd[1] + 1
-        if z - a == 2:
-            m.dof_armature[a:z] = arm
-            m.dof_damping[a:z] = damp
-            m.dof_frictionloss[a:z] = fric
-        else:
+        qfrc = self._qfrc
+        qfrc[fd[0]] = force
+        qfrc[fd[1]] = -force
+        reflected = ((self.gripper_servo.armature + self.gripper_inertia) * k / rate,
+                     b * k / rate, self.gripper_friction * k)
+        if reflected != self._g_reflected:     # unchanged while the fingers stand still
+            self._g_reflected = reflected
+            arm, damp, fric = reflected
+            armature, damping, friction = self._finger_views
             for dof in fd:
-                m.dof_armature[dof] = arm
-                m.dof_damping[dof] = damp
-                m.dof_frictionloss[dof] = fric
+                armature[dof] = arm
+                damping[dof] = damp
+                friction[dof] = fric
         self.g_effort = drive
         self._g_rate = rate
 
     def _after_gripper_step(self, on: bool) -> None:
-        fq, fd = self._fq, self._fd
+        fd = self._fd
         rate = self._g_rate
         if on:
-            vl = self.gripper_servo.velocity_limit * rate
+            qvel = self._qvel
+            vl = self._g_velocity_limit * rate
             for dof in fd:
-                v = float(self._qvel[dof])
+                v = float(qvel[dof])
                 if v > vl:
-                    self._qvel[dof] = vl
+                    qvel[dof] = vl
                 elif v < -vl:
-                    self._qvel[dof] = -vl
-            self.g_effort -= self.gripper_servo.back_emf_damping * float(self._qvel[fd[0]]) / rate
+                    qvel[dof] = -vl
+            self.g_effort -= self._g_servo[2] * float(qvel[fd[0]]) / rate
         else:
             self.g_effort = 0.0
         if self._object_half is not None and not self._object_engaged and \
-                float(self._qpos[fq[0]]) >= self._object_half - 1e-9:
+                float(self._qpos[self._fq[0]]) >= self._object_half - 1e-9:
             self._object_engaged = True
             self._set_finger_stop(self._object_half)
 
@@ -985,21 +1008,24 @@ class ArmSimulator:
             x, y, z, w, a, b, c = qpos[qadr:qadr + 7].tolist()
             norm = math.sqrt(w * w + a * a + b * b + c * c)
             out[name] = ((x, y, z), (a / norm, b / norm, c / norm, w / norm))
-        if self.scene is not None:
-            for body in self.scene.statics:
-                out[body.name] = (tuple(body.position), tuple(body.quaternion_xyzw))
+        out.update(self._static_poses)
         return out
 
     def contacts(self) -> Dict[str, set]:
-        """Return {object: names of what touches it ('left_pad', 'right_pad', bodies)}."""
-        d = self.mj_data
+        """
+        Return {object: names of what touches it ('left_pad', 'right_pad', bodies)}.
+
+        The contacts MuJoCo found last (at the start of the last step, or by
+        :meth:`held_object`).
+        """
+        ncon = int(self.mj_data.ncon)
+        if not ncon:
+            return {}
         out: Dict[str, set] = {}
         pads = self.built.pad_geoms
         labels = {pads[0]: 'left_pad', pads[1]: 'right_pad'} if len(pads) == 2 else {}
         geom_object, statics = self._geom_object, self._static_geoms
-        for k in range(d.ncon):
-            con = d.contact[k]
-            g1, g2 = int(con.geom1), int(con.geom2)
+        for g1, g2 in self.mj_data.contact.geom[:ncon].tolist():
             for a, b in ((g1, g2), (g2, g1)):
                 obj = geom_object.get(a)
                 if obj is None:
@@ -1016,8 +1042,16 @@ class ArmSimulator:
         return out
 
     def held_object(self) -> Optional[str]:
-        """Return the object touched by both finger pads and off its support, or None."""
-        mujoco.mj_forward(self.mj_model, self.mj_data)
+        """
+        Return the object touched by both finger pads and off its support, or None.
+
+        Contacts at the present state: kinematics and collision detection only (what the
+        next step computes first; the trajectory does not depend on this query).
+        """
+        if not self._geom_object:
+            return None
+        mujoco.mj_kinematics(self.mj_model, self.mj_data)
+        mujoco.mj_collision(self.mj_model, self.mj_data)
         for name, touching in sorted(self.contacts().items()):
             if {'left_pad', 'right_pad'} <= touching and 'static' not in touching:
                 return name

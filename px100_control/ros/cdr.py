@@ -1,19 +1,20 @@
 """
 The wire module's CDR checked against rclpy: the nodes use the fast path only when it agrees.
 
-``matches_rclpy`` (JointState and DiagnosticStatus writers), ``trajectory_shape_matches_rclpy``,
-``pose_stamped_matches_rclpy`` and ``string_matches_rclpy`` (the recorder's std_msgs/String,
-through ``string_writer``) compare :mod:`px100_control.wire.cdr` with rclpy's serializer of the
-running middleware on sample messages. Not ``tf_message``: rclpy cannot check TFMessage without
-tf2_msgs (not a dependency), and its bytes only go into bags; test/bag/test_bag_tf.py checks
-them against rosbags and mcap_ros2 instead.
+``matches_rclpy`` (JointState and DiagnosticStatus writers), ``clock_matches_rclpy``,
+``trajectory_shape_matches_rclpy``, ``pose_stamped_matches_rclpy`` and ``string_matches_rclpy``
+(the recorder's std_msgs/String, through ``string_writer``) compare
+:mod:`px100_control.wire.cdr` with rclpy's serializer of the running middleware on sample
+messages. Not ``tf_message``: rclpy cannot check TFMessage without tf2_msgs (not a dependency),
+and its bytes only go into bags; test/bag/test_bag_tf.py checks them against rosbags and
+mcap_ros2 instead.
 """
 from typing import Callable
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
-from px100_control.wire.cdr import (diagnostic_status, JointStateWriter, read_pose_stamped,
-                                    string_message, trajectory_shape)
+from px100_control.wire.cdr import (clock, diagnostic_status, JointStateWriter,
+                                    read_pose_stamped, string_message, trajectory_shape)
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -31,11 +32,13 @@ def matches_rclpy() -> bool:
     names = ['waist', 'shoulder', 'elbow', 'wrist_angle']
     for frame in ('', 'px100/base_link'):
         writer = JointStateWriter(names, frame)
-        for pos in ([], [0.1, -2.5, 3.0, 1e-300], [1.5]):
-            msg = JointState(name=names, position=pos)
+        for pos, vel, eff in (([], [], []), ([0.1, -2.5, 3.0, 1e-300], [], []), ([1.5], [], []),
+                              ([0.1, 0.2, 0.3, 0.4], [-1.0, 0.0, 2.0, 3.5], [0.5, 0.6, -0.7, 8.0]),
+                              ([], [1.0], [])):
+            msg = JointState(name=names, position=pos, velocity=vel, effort=eff)
             msg.header.stamp.sec, msg.header.stamp.nanosec = -12, 345
             msg.header.frame_id = frame
-            if deserialize_message(writer.write(-12, 345, pos), JointState) != msg:
+            if deserialize_message(writer.write(-12, 345, pos, vel, eff), JointState) != msg:
                 return False
     values = [('mode', 'pitch'), ('position_error', '1.234e-16'), ('x', '')]
     for level, message in ((b'\x00', 'solved'), (b'\x02', 'invalid request: pose has NaN')):
@@ -44,6 +47,18 @@ def matches_rclpy() -> bool:
                                values=[KeyValue(key=k, value=v) for k, v in values])
         raw = diagnostic_status(level, msg.name, message, msg.hardware_id, values)
         if deserialize_message(raw, DiagnosticStatus) != msg:
+            return False
+    return True
+
+
+def clock_matches_rclpy() -> bool:
+    """Return True when the running middleware reads :func:`clock` bytes as the sample times."""
+    from rclpy.serialization import deserialize_message
+    from rosgraph_msgs.msg import Clock
+    for sec, nanosec in ((0, 0), (12, 999_999_999), (2 ** 31 - 1, 4)):
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = sec, nanosec
+        if deserialize_message(clock(sec, nanosec), Clock) != msg:
             return False
     return True
 
@@ -102,7 +117,7 @@ def string_writer() -> Callable[[str], bytes]:
     return string_message if string_matches_rclpy() else rclpy_string_message
 
 
-__all__ = ['matches_rclpy', 'trajectory_shape_matches_rclpy', 'pose_stamped_matches_rclpy',
-           'string_matches_rclpy', 'string_writer', 'rclpy_string_message',
-           'diagnostic_status', 'JointStateWriter', 'read_pose_stamped', 'string_message',
-           'trajectory_shape']
+__all__ = ['matches_rclpy', 'clock_matches_rclpy', 'trajectory_shape_matches_rclpy',
+           'pose_stamped_matches_rclpy', 'string_matches_rclpy', 'string_writer',
+           'rclpy_string_message', 'clock', 'diagnostic_status', 'JointStateWriter',
+           'read_pose_stamped', 'string_message', 'trajectory_shape']

@@ -39,14 +39,14 @@ paced by :mod:`px100_control.ros.sim_physics`). With ``real_time_factor`` 1 and
 with it and publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` of simulated time.
 
 Parameters (:data:`px100_control.parameters.SIM_DRIVER`, defaults in config/px100.yaml,
-validated live): rates, clock, object width, scene (a bad one is refused with the loader's
-reason: at start the node exits non-zero), gains units, and per joint ``gains.<joint>.<field>``,
-``torque_enable.<joint>``, ``operating_mode.<joint>``.
+validated live): rates, clock, ``object_width`` [m] (a finger stop, no object; 0 = off), scene
+(a bad one is refused with the loader's reason: at start the node exits non-zero), gains
+units, and per joint ``gains.<joint>.<field>``, ``torque_enable.<joint>``,
+``operating_mode.<joint>``.
 """
 import collections
 from dataclasses import replace
 import sys
-import threading
 import time
 from typing import List, Optional
 
@@ -62,8 +62,8 @@ from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
 from px100_control.ros.sim_joint_parameters import JointParameters
-from px100_control.ros.sim_messages import error_array, joint_state, pose_stamped, shown_names
-from px100_control.ros.sim_physics import PhysicsThread
+from px100_control.ros.sim_messages import error_array, pose_stamped, shown_names, StateMessages
+from px100_control.ros.sim_physics import PhysicsThread, YieldingLock
 from px100_control.ros.world import WorldPublisher
 from px100_control.sim.driver_parameters import (core_change_error, core_error, CORE_PARAMS,
                                                  GAINS_UNITS)
@@ -105,7 +105,7 @@ class SimDriverNode(Node):
         self.joint_parameters.declare(self.sim)
         for note in self.sim.dynamics.notes:
             self.get_logger().info(f'dynamics: {note}')
-        self._lock = threading.Lock()
+        self._lock = YieldingLock()
         # One reentrant group for every callback, serialised by self._lock: a mutually
         # exclusive group drops a busy timer from the multi-threaded executor's wait set and
         # it then fires late, in pairs (p50 publish jitter 8 ms instead of 0.2 ms).
@@ -135,6 +135,7 @@ class SimDriverNode(Node):
     def _make_interfaces(self, world_rate: float) -> None:
         """Create the publishers, the setpoint subscription, the services and the world."""
         self.pub_js = self.create_publisher(JointState, robot_topic(self, 'joint_states'), 10)
+        self._out = StateMessages(self._names)        # joint_states and /clock to publish
         self.pub_ee = self.create_publisher(PoseStamped, robot_topic(self, 'ee_pose'), 10)
         self.pub_desc = self.create_publisher(String, robot_topic(self, 'robot_description'),
                                               LATCHED_QOS)
@@ -244,15 +245,14 @@ class SimDriverNode(Node):
 
     # --- publishing ----------------------------------------------------------------------------
     def _publish_clock(self, stamp_ns: int) -> None:
-        self.pub_clock.publish(ClockMsg(clock=time_from_ns(stamp_ns)))
+        self.pub_clock.publish(self._out.clock(stamp_ns))
 
     def _publish_state(self, stamp_ns: int) -> None:
         self.publish_times.append(time.monotonic())
-        stamp = time_from_ns(stamp_ns)
-        self.pub_js.publish(joint_state(stamp, self._names, self.sim.joint_state()))
+        self.pub_js.publish(self._out.joint_state(stamp_ns, self.sim.joint_state()))
         self.world.tick(self.sim, stamp_ns)
         if self.pub_ee.get_subscription_count():  # forward kinematics only when someone listens
-            self.pub_ee.publish(pose_stamped(stamp, self._base_frame,
+            self.pub_ee.publish(pose_stamped(time_from_ns(stamp_ns), self._base_frame,
                                              *self.sim.ee_pose_quaternion()))
 
     def _publish_description(self) -> None:

@@ -1,5 +1,5 @@
 """
-The messages the sim_driver publishes: joint states, the end-effector pose, error diagnostics.
+The messages the sim_driver publishes: joint states, /clock, the end-effector pose, diagnostics.
 
 Stamps are builtin_interfaces/Time; positions [rad] (fingers [m]), velocities [rad/s] (fingers
 [m/s]), efforts [N*m] (fingers [N]); the pose is in ``frame_id`` [m], orientation a unit
@@ -9,21 +9,51 @@ from typing import Sequence
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
+from px100_control.ros import cdr
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 #: most joint names a refused setpoint's diagnostics list
 SHOWN_NAMES = 20
 
 
-def joint_state(stamp, names: list, sample) -> JointState:
-    """Return the JointState of a simulator sample (``position``, ``velocity``, ``effort``)."""
-    js = JointState()
-    js.header.stamp = stamp
-    js.name = names
-    js.position = sample.position
-    js.velocity = sample.velocity
-    js.effort = sample.effort
-    return js
+class StateMessages:
+    """
+    The driver's joint_states and /clock, ready to publish.
+
+    CDR bytes when the running middleware reads them back as the intended messages (checked
+    once here, as the IK service does), else one reused message per topic filled in place
+    (building a message costs more than filling it).
+
+    :param names: the joint names of every joint_states message
+    """
+
+    def __init__(self, names: Sequence[str]):
+        self.raw = cdr.matches_rclpy() and cdr.clock_matches_rclpy()
+        self._writer = cdr.JointStateWriter(list(names))
+        self._js = JointState(name=list(names))
+        self._clock = Clock()
+
+    def joint_state(self, stamp_ns: int, sample):
+        """Return joint_states stamped [ns] with a simulator sample's values."""
+        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+        if self.raw:
+            return self._writer.write(sec, nanosec, sample.position, sample.velocity,
+                                      sample.effort)
+        msg = self._js
+        msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+        msg.position = sample.position
+        msg.velocity = sample.velocity
+        msg.effort = sample.effort
+        return msg
+
+    def clock(self, stamp_ns: int):
+        """Return /clock at ``stamp_ns`` [ns]."""
+        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+        if self.raw:
+            return cdr.clock(sec, nanosec)
+        self._clock.clock.sec, self._clock.clock.nanosec = sec, nanosec
+        return self._clock
 
 
 def pose_stamped(stamp, frame_id: str, position, quaternion_xyzw) -> PoseStamped:

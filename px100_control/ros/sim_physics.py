@@ -7,7 +7,10 @@ pairs (periods 1.5 ms / 18.5 ms), and a timer that only woke a thread fired ever
 Following the system clock, each sample is integrated up to its nominal time and stamped with
 it (after a stall the missed samples follow at once, each with its own state, up to CATCH_UP
 late); with its own clock, ticks of TICK_RATE advance simulated time. Following ``/clock``
-(use_sim_time), ROS timers on the node clock wake it.
+(use_sim_time), ROS timers on the node clock wake it. As fast as possible (real_time_factor 0 or
+inf) the ticks run back to back: between two ticks the thread lets the callbacks that wait for
+the node's :class:`YieldingLock` (setpoints, services, parameters) go first, and otherwise
+takes it straight back.
 """
 import threading
 import time
@@ -20,6 +23,35 @@ FOLLOW_TICK_RATE = 20.0
 #: following the system clock, samples missed by a stall up to this long are still published
 #: (each integrated to and stamped with its own time) [s]; longer stalls drop them
 CATCH_UP = 2.0
+#: as fast as possible: the pause [s] while callbacks wait for the lock, and its longest sum
+YIELD_PAUSE, YIELD_MAX = 0.0002, 0.05
+
+
+class YieldingLock:
+    """
+    A mutual-exclusion lock (``with lock:``) that counts the threads waiting for it.
+
+    The physics thread, running as fast as possible, looks at ``waiting`` between ticks and
+    lets them have the lock first (a plain Lock goes straight back to the thread that released
+    it while the woken waiter is still being scheduled).
+    """
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._count = threading.Lock()
+        #: threads blocked in ``with lock:``
+        self.waiting = 0
+
+    def __enter__(self):
+        with self._count:
+            self.waiting += 1
+        self._lock.acquire()
+        with self._count:
+            self.waiting -= 1
+        return self
+
+    def __exit__(self, *exc_info):
+        self._lock.release()
 
 
 class PhysicsThread:
@@ -144,15 +176,26 @@ class PhysicsThread:
             return not self._stopping
 
     def _paced(self) -> None:
-        """Own clock: run the master tick every 1 / TICK_RATE of wall time."""
+        """Own clock: run the master tick every 1 / TICK_RATE of wall time (or back to back)."""
         period = 1.0 / TICK_RATE
         self._next = time.monotonic() + period
         while self._wait_until(lambda: self._next - time.monotonic()):
             self._run(self._master_tick)
-            self._next += period
             now = time.monotonic()
+            if self._stepper.fast:                          # as fast as possible
+                self._next = now
+                self._let_waiters_in()
+                continue
+            self._next += period
             if now - self._next > period:                   # fell behind: skip, do not burst
                 self._next = now + period
+
+    def _let_waiters_in(self) -> None:
+        """Pause while callbacks wait for the lock (at most YIELD_MAX)."""
+        end = time.monotonic() + YIELD_MAX
+        while getattr(self._lock, 'waiting', 0) and not self._stopping and \
+                time.monotonic() < end:
+            time.sleep(YIELD_PAUSE)
 
     def _follow_due(self) -> float:
         """Return the seconds to the next sample; a changed publish_rate restarts the period."""

@@ -5,9 +5,10 @@ A thin adapter: the bodies come from ``ArmSimulator.objects()`` / ``object_poses
 ``held_object()``, the marker fields from :func:`px100_control.bag.world.world_markers`, the
 messages from :mod:`px100_control.ros.world_msgs`. Both topics are transient local (a late
 subscriber gets the last state at once). ``world/markers`` follows ``world_rate`` in the
-driver's time (simulated time when it owns the clock); ``world/held_object`` is published when
-the held object changes (checked at the same rate: the contact query costs about as much as a
-physics step).
+driver's time (simulated time when it owns the clock); the MarkerArray is built once per scene
+and then restamped with the objects' new poses (in its CDR bytes, when the middleware reads
+them right). ``world/held_object`` is published when the held
+object changes (checked at the same rate).
 """
 from typing import List, Optional
 
@@ -15,7 +16,7 @@ from px100_control.bag.world import world_markers
 from px100_control.errors import InvalidInputError
 from px100_control.ros.common import LATCHED_QOS, robot_topic
 from px100_control.ros.conversions import time_from_ns
-from px100_control.ros.world_msgs import marker_array
+from px100_control.ros.world_msgs import marker_array, raw_marker_writer, update_marker_array
 from px100_control.sim.scene import load_scene
 from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
@@ -42,6 +43,9 @@ class WorldPublisher:
         self.pub_held = node.create_publisher(String, robot_topic(node, 'world/held_object'),
                                               LATCHED_QOS)
         self._objects: Optional[List] = None
+        self._msg: Optional[MarkerArray] = None     # built once per scene, then updated
+        self._movable: List = []                    # (marker index, object name)
+        self._raw = None                            # the message's bytes writer, if any
         self._next_ns: Optional[int] = None
         self._held: Optional[str] = None
         self.has_objects = False
@@ -72,6 +76,7 @@ class WorldPublisher:
         if self._objects is None:
             self._objects = list(sim.objects())
             self.has_objects = bool(self._objects)
+            self._msg = None
         return self._objects
 
     def publish_now(self, sim, stamp_ns: int) -> None:
@@ -87,9 +92,7 @@ class WorldPublisher:
         if not (self._next_ns is None or stamp_ns >= self._next_ns or
                 stamp_ns < self._next_ns - 2e9 / self.rate):      # (the clock went back)
             return
-        self.pub_markers.publish(marker_array(
-            world_markers(bodies, sim.object_poses() if bodies else {}, self.frame_id),
-            time_from_ns(stamp_ns)))
+        self.pub_markers.publish(self._markers(bodies, sim, stamp_ns))
         period = int(round(1e9 / self.rate))
         self._next_ns = (stamp_ns + period if self._next_ns is None
                          or abs(stamp_ns - self._next_ns) > period
@@ -98,3 +101,25 @@ class WorldPublisher:
         if held != self._held:
             self._held = held
             self.pub_held.publish(String(data=held))
+
+    def _markers(self, bodies, sim, stamp_ns: int):
+        """
+        Return world/markers at ``stamp_ns`` [ns]: a MarkerArray or its CDR bytes.
+
+        The message is built at the first call of a scene; later calls restamp it and move the
+        objects, in its serialized bytes when the middleware reads them right.
+        """
+        stamp = time_from_ns(stamp_ns)
+        if not bodies:
+            return marker_array([], stamp)
+        poses = sim.object_poses()
+        if self._msg is None:
+            self._msg = marker_array(world_markers(bodies, poses, self.frame_id), stamp)
+            self._movable = [(i, b.name) for i, b in enumerate(bodies) if b.kind == 'object']
+            self._raw = raw_marker_writer(self._msg, [i for i, _ in self._movable])
+            return self._msg
+        if self._raw is not None:
+            return self._raw.write(stamp.sec, stamp.nanosec,
+                                   [poses[name][0] + poses[name][1] for _, name in self._movable])
+        update_marker_array(self._msg, stamp, [(i, poses[name]) for i, name in self._movable])
+        return self._msg

@@ -12,8 +12,8 @@ chosen at start:
   ``control_rate`` whose physics would need over MAX_PHYSICS_LOAD of a core is refused (the
   step cost is measured while running: about 44 us on a 2-core test machine, so ~18 kHz);
 - owning the clock (``master`` True): simulated time advances from 0 at ``rtf`` x wall time (0
-  or inf: as fast as possible, within CHUNK_BUDGET of wall time per tick); the node publishes
-  it on ``/clock`` so nodes started with ``use_sim_time:=true`` follow it.
+  or inf: as fast as possible, CHUNK_BUDGET of wall time per tick, ticks back to back); the
+  node publishes it on ``/clock`` so nodes started with ``use_sim_time:=true`` follow it.
 
 Times: ``sim_ns`` simulated time integrated so far [ns]; ``start_ns`` the node clock at
 simulated time 0 [ns] (following a clock).
@@ -70,6 +70,11 @@ class Stepper:
         self.sim_anchor_ns = 0
         self.next_pub_ns = period_ns(self.publish_rate)
         self.next_clock_ns = period_ns(self.clock_rate)
+
+    @property
+    def fast(self) -> bool:
+        """Return True when owning the clock as fast as possible (rtf 0 or inf)."""
+        return self.master and (self.rtf == 0.0 or math.isinf(self.rtf))
 
     @property
     def stamp_ns(self) -> int:
@@ -159,7 +164,7 @@ class Stepper:
         publish period of simulated time; stops after the tick's wall-time budget.
         """
         wall0 = self._wall()
-        fast = self.rtf == 0.0 or math.isinf(self.rtf)
+        fast = self.fast
         target = (math.inf if fast
                   else self.sim_anchor_ns + (wall0 - self.wall_anchor) * self.rtf * 1e9)
         start_ns = self.sim_ns

@@ -7,7 +7,10 @@ counted from the end of that header; strings are a uint32 length (with the NUL) 
 sequences a uint32 count and the elements.
 
 - ``JointStateWriter`` / ``diagnostic_status``: the IK service's replies (building the messages
-  and letting rclpy serialize them costs about 45 us per request, writing the bytes about 5 us).
+  and letting rclpy serialize them costs about 45 us per request, writing the bytes about 5 us)
+  and the sim_driver's joint_states; ``clock``: its /clock;
+- ``PatchedTemplate`` / ``unique_offset``: a message serialized once whose stamps and poses are
+  rewritten in place (the sim_driver's world/markers).
 - ``read_pose_stamped``: a geometry_msgs/PoseStamped request read in place.
 - ``trajectory_shape``: a JointTrajectory's stamp, joint names and array lengths without its
   values (the trajectory server refuses a malformed goal before deserializing it).
@@ -24,6 +27,7 @@ from typing import Iterable, Optional, Sequence, Tuple
 
 ENCAPSULATION = b'\x00\x01\x00\x00'      # CDR, little endian, no options
 _U32 = struct.Struct('<I')
+_I32_U32 = struct.Struct('<iI')
 
 
 def _pad(n: int, align: int) -> int:
@@ -45,8 +49,8 @@ class JointStateWriter:
     """
     Serialized sensor_msgs/JointState with fixed joint names and frame_id.
 
-    ``write(sec, nanosec, positions)`` returns the bytes of a message with that stamp, those
-    positions (any count, possibly none) and empty velocity and effort.
+    ``write(sec, nanosec, positions, velocities=(), efforts=())`` returns the bytes of a message
+    with that stamp and those arrays (any counts, possibly none).
     """
 
     def __init__(self, names: Sequence[str], frame_id: str = ''):
@@ -59,25 +63,64 @@ class JointStateWriter:
             body.append(piece)
             off += len(piece)
         self._tail = b''.join(body)
-        self._count_pad = b'\x00' * _pad(off, 4)
-        self._off_after_count = off + _pad(off, 4) + 4
+        self._off_names_end = off
         self._stamp = struct.Struct('<iI')
 
-    def write(self, sec: int, nanosec: int, positions: Sequence[float]) -> bytes:
-        """Return the serialized message (stamp, names, positions, empty velocity/effort)."""
-        n = len(positions)
-        parts = [ENCAPSULATION, self._stamp.pack(sec, nanosec), self._tail, self._count_pad,
-                 _U32.pack(n)]
-        off = self._off_after_count
-        if n:
-            pad = _pad(off, 8)
-            parts.append(b'\x00' * pad)
-            parts.append(struct.pack(f'<{n}d', *positions))
-            off += pad + 8 * n
-        # velocity and effort: empty sequences (a count, 4-aligned)
-        pad = _pad(off, 4)
-        parts.append(b'\x00' * pad + b'\x00\x00\x00\x00\x00\x00\x00\x00')
+    def write(self, sec: int, nanosec: int, positions: Sequence[float],
+              velocities: Sequence[float] = (), efforts: Sequence[float] = ()) -> bytes:
+        """Return the serialized message (stamp, names, the three float64 arrays)."""
+        parts = [ENCAPSULATION, self._stamp.pack(sec, nanosec), self._tail]
+        off = self._off_names_end
+        for values in (positions, velocities, efforts):
+            n = len(values)
+            pad = _pad(off, 4)
+            parts.append(b'\x00' * pad + _U32.pack(n))
+            off += pad + 4
+            if n:
+                pad = _pad(off, 8)
+                parts.append(b'\x00' * pad + struct.pack(f'<{n}d', *values))
+                off += pad + 8 * n
         return b''.join(parts)
+
+
+def clock(sec: int, nanosec: int) -> bytes:
+    """Return the serialized rosgraph_msgs/Clock of a time (sec, nanosec)."""
+    return ENCAPSULATION + _I32_U32.pack(sec, nanosec)
+
+
+class PatchedTemplate:
+    """
+    A serialized message whose stamps and poses change and nothing else (a fixed layout).
+
+    :param template: the message's bytes (little-endian CDR)
+    :param stamps: payload-independent byte offsets (from the start of ``template``) of
+        builtin_interfaces/Time fields to set at each write
+    :param poses: byte offsets of geometry_msgs/Pose fields (7 float64: position, orientation)
+    """
+
+    _POSE = struct.Struct('<7d')
+
+    def __init__(self, template: bytes, stamps: Sequence[int], poses: Sequence[int]):
+        self._template = bytes(template)
+        self._stamps = list(stamps)
+        self._poses = list(poses)
+
+    def write(self, sec: int, nanosec: int, poses: Sequence[Sequence[float]]) -> bytes:
+        """Return the bytes with every stamp set and pose k set to ``poses[k]`` (7 values)."""
+        buf = bytearray(self._template)
+        for off in self._stamps:
+            _I32_U32.pack_into(buf, off, sec, nanosec)
+        for off, pose in zip(self._poses, poses):
+            self._POSE.pack_into(buf, off, *pose)
+        return bytes(buf)
+
+
+def unique_offset(data: bytes, pattern: bytes) -> Optional[int]:
+    """Return the offset of ``pattern`` in ``data`` if it occurs exactly once, else None."""
+    first = data.find(pattern)
+    if first < 0 or data.find(pattern, first + 1) >= 0:
+        return None
+    return first
 
 
 def diagnostic_status(level, name: str, message: str, hardware_id: str,
@@ -100,9 +143,6 @@ def diagnostic_status(level, name: str, message: str, hardware_id: str,
             parts.append(piece)
             off += len(piece)
     return b''.join(parts)
-
-
-_I32_U32 = struct.Struct('<iI')
 
 
 def _read_string(data, off: int) -> Tuple[str, int]:

@@ -14,11 +14,17 @@ from px100_control.ros.world_msgs import markers_of
 import pytest
 import rclpy
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 pytestmark = pytest.mark.ros
+
+#: the probe keeps every message (LATCHED_QOS keeps the last only: on a busy machine the marker
+#: published at a reset could be replaced by the next one before the probe's callback ran)
+PROBE_QOS = QoSProfile(depth=200, durability=LATCHED_QOS.durability,
+                       reliability=LATCHED_QOS.reliability)
 
 #: one cube 20 mm above the table: it falls when the simulation runs
 FALLING = """name: falling
@@ -37,9 +43,9 @@ class WorldProbe:
         self.lock = threading.Lock()
         self.markers, self.held = [], []
         self.node.create_subscription(MarkerArray, f'{ns}/world/markers',
-                                      self._keep(self.markers), LATCHED_QOS)
+                                      self._keep(self.markers), PROBE_QOS)
         self.node.create_subscription(String, f'{ns}/world/held_object',
-                                      self._keep(self.held), LATCHED_QOS)
+                                      self._keep(self.held), PROBE_QOS)
         self.world_reset = self.node.create_client(Trigger, f'{ns}/world/reset')
         self.reset = self.node.create_client(Trigger, f'{ns}/reset')
 

@@ -18,6 +18,9 @@ from px100_control.sim.scene import available_scenes, load_scene
 import pytest
 
 STRONG, WEAK = -0.4, -0.25        # gripper efforts [N*m] (250 and 158 PWM)
+#: the most a held object may move in the tool frame through the swing [m] (measured 0.17-0.18
+#: mm centred with MuJoCo 4.0; the issue's bound)
+SLIP = 0.0005
 
 
 @pytest.fixture(scope='module')
@@ -86,7 +89,7 @@ def _finger_axis(p):
 
 @pytest.mark.parametrize('name', ['red_cube', 'green_cube', 'blue_cylinder'])
 def test_good_grasp_holds_through_a_fast_swing(px100, scene, name):
-    """Centred grasp, 250 PWM: lifted, held through a 90 deg waist swing in 1.5 s, slip < 2 mm."""
+    """Centred grasp, 250 PWM: lifted, held through a 90 deg swing in 1.5 s, slip < 0.5 mm."""
     sim = ArmSimulator(px100, scene=scene)
     p0 = _pick(sim, name)
     assert sim.held_object() == name
@@ -96,7 +99,7 @@ def test_good_grasp_holds_through_a_fast_swing(px100, scene, name):
     assert sim.held_object() == name
     slip = float(np.linalg.norm(_in_tool(sim, name) - before))
     print(f'{name}: slip during the swing {slip * 1000:.2f} mm')
-    assert slip < 0.002
+    assert slip < SLIP
     others = [o.name for o in scene.objects if o.name != name]
     for other in others:                                           # nothing else moved
         np.testing.assert_allclose(sim.object_poses()[other][0], scene.body(other).position,
@@ -123,7 +126,10 @@ def test_grasp_planned_at_the_nominal_pose_tolerates_jitter(px100, scene):
         before = _in_tool(sim, 'red_cube')
         _swing(sim)
         assert sim.held_object() == 'red_cube', (dx, dy, dyaw)
-        assert np.linalg.norm(_in_tool(sim, 'red_cube') - before) < 0.002
+        slip = float(np.linalg.norm(_in_tool(sim, 'red_cube') - before))
+        print(f'jitter ({dx * 1e3:.1f}, {dy * 1e3:.1f}) mm, {math.degrees(dyaw):.1f} deg: slip '
+              f'{slip * 1000:.2f} mm')
+        assert slip < SLIP, (dx, dy, dyaw)
 
 
 def test_off_centre_weak_grasp_fails(px100, scene):

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 from px100_control.control.pid import PidGains
-from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
+from px100_control.control.simulator import ArmSimulator, parse_setpoints
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
 from px100_control.models.registry import load_robot
 import pytest
@@ -216,29 +216,9 @@ def test_reset_returns_to_sleep(px100):
     np.testing.assert_allclose(sim.q, px100.sleep, atol=1e-4)
 
 
-def test_dynamics_divider_is_a_small_approximation(px100):
-    """Refreshing M and h every 4th step (the default) changes motion by well under 1 mrad."""
-    def path(div, target, velocities=False):
-        sim = ArmSimulator(px100, SimConfig(dynamics_divider=div))
-        out = []
-        for k in range(2000):
-            if velocities:
-                q, qd = trapezoid(np.array(px100.sleep), np.array(target), 1.5, 0.3, k * sim.dt)
-                sim.command(ARM, list(q), list(qd))
-            elif k == 0:
-                sim.command(ARM, target)
-            sim.step()
-            out.append(list(sim.q))
-        return np.array(out)
-
-    move = [1.0, 0.3, -0.4, 0.5]
-    assert np.abs(path(1, move, True) - path(4, move, True)).max() < 2e-4    # smooth move
-    assert np.abs(path(1, move) - path(4, move)).max() < 1e-3                 # saturated step
-
-
 def test_semi_implicit_euler_keeps_energy_without_losses(px100):
     """Torque off, no damping or friction: the integrator's energy error stays below 0.5 %."""
-    sim = ArmSimulator(px100, SimConfig(dynamics_divider=1))
+    sim = ArmSimulator(px100)
     sim.damping = [0.0] * 4
     sim.friction = [0.0] * 4
     sim.hold([0.0, 0.3, -0.5, 0.4])
