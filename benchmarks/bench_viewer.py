@@ -19,7 +19,7 @@ message stamped with the wall clock (``time.time()``) at publish. Measured:
 Goal (issue #16): at most 20 % of a core, p50 at most 50 ms. The load average is recorded: on a
 shared 2-core machine the figures vary with what else runs. Writes
 ``benchmarks/results/viewer.json``. Usage (venv + install sourced): ``python
-benchmarks/bench_viewer.py [--quick]``.
+benchmarks/bench_viewer.py [--quick] [--idle SECONDS]``.
 """
 import argparse
 import json
@@ -137,29 +137,53 @@ def _cpu_share(pid: int, seconds: float, sleep=time.sleep) -> float:
     return (_cpu_seconds(pid) - c0) / (time.monotonic() - w0)
 
 
+def _start_viewer():
+    """Start the installed viewer process on PORT and wait for its page (robot loaded)."""
+    import urllib.request
+
+    from px100_control.tools.processes import NodeProcess
+    viewer = NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}'])
+    deadline = time.monotonic() + 60.0
+    while True:
+        try:
+            with urllib.request.urlopen(f'http://127.0.0.1:{PORT}', timeout=2.0):
+                break
+        except OSError:
+            if time.monotonic() > deadline:
+                viewer.stop()
+                raise RuntimeError('viewer page did not come up: ' + viewer.output())
+            time.sleep(0.5)
+    time.sleep(3.0)               # robot loaded, joint_states flowing
+    return viewer
+
+
+def idle_cpu(window: float = 10.0) -> float:
+    """Return the viewer's CPU share [fraction of a core] with 50 Hz joint_states, no browser."""
+    feeder = Feeder()
+    try:
+        viewer = _start_viewer()
+        try:
+            return _cpu_share(viewer.pid, window)
+        finally:
+            viewer.stop()
+    finally:
+        feeder.close()
+
+
 def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
     """Measure the viewer's CPU share without and with a browser, and the page latency."""
     from playwright.sync_api import sync_playwright
-
-    from px100_control.tools.processes import NodeProcess
     window = 5.0 if quick else 15.0
     load0 = os.getloadavg()[0]
     figures = {'rate_hz': RATE_HZ, 'viewer_rate_hz': 30.0, 'window_s': window,
                'viewport': list(viewport)}
     feeder = Feeder()
-    viewer = NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}'])
     try:
-        import urllib.request
-        deadline = time.monotonic() + 60.0
-        while True:
-            try:
-                with urllib.request.urlopen(f'http://127.0.0.1:{PORT}', timeout=2.0):
-                    break
-            except OSError:
-                if time.monotonic() > deadline:
-                    raise RuntimeError('viewer page did not come up: ' + viewer.output())
-                time.sleep(0.5)
-        time.sleep(3.0)               # robot loaded, joint_states flowing
+        viewer = _start_viewer()
+    except BaseException:
+        feeder.close()
+        raise
+    try:
         figures['cpu_no_browser'] = round(_cpu_share(viewer.pid, window), 4)
         log(f"viewer CPU, no browser: {100 * figures['cpu_no_browser']:.1f} % of a core")
         with sync_playwright() as p:
@@ -220,7 +244,17 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description='viewer CPU share and page latency')
     parser.add_argument('--quick', action='store_true', help='short windows')
     parser.add_argument('--viewport', default='1000x700', help='page size WxH [px]')
+    parser.add_argument('--idle', type=float, default=None, metavar='SECONDS',
+                        help='only the CPU share with no browser over SECONDS (printed, '
+                             'not written)')
     args = parser.parse_args(argv)
+    if args.idle is not None:
+        load0 = os.getloadavg()[0]
+        share = idle_cpu(args.idle)
+        print(f'viewer CPU, no browser, 50 Hz joint_states, {args.idle:.0f} s: '
+              f'{100 * share:.1f} % of a core (load average {load0:.2f} -> '
+              f'{os.getloadavg()[0]:.2f})')
+        return 0
     figures = run(args.quick, viewport=tuple(int(v) for v in args.viewport.split('x')))
     print(figures['markdown'])
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)

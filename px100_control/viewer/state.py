@@ -188,6 +188,7 @@ class ViewerState:
         self.last_error = ''
         self.note = ''
         self.fk: Optional[Callable] = None
+        self._ee = (-1, None)
 
     def _bump(self, *parts: str) -> None:
         for p in parts:
@@ -204,21 +205,35 @@ class ViewerState:
 
     def set_joints(self, names: Sequence[str], positions: Sequence[float],
                    stamp: float) -> None:
-        """Take a joint_states sample (rad or m) at stamp [s]; extend the trail through fk."""
+        """Take a joint_states sample (rad or m) at stamp [s] (the trail: update_trail)."""
         for n, v in zip(names, positions):
             v = float(v)
             if math.isfinite(v):
                 self.joints[str(n)] = v
         self.stamp = float(stamp)
         self._bump('joints', 'status')
-        if self.fk is not None:
-            pose = self.fk(self.joints)
-            if pose is not None and self.trail.add(pose[0]):
-                self._bump('trail')
 
     def ee_pose(self):
         """Return the end effector's (xyz, quat_xyzw) at the current joints, or None."""
-        return self.fk(self.joints) if self.fk is not None and self.joints else None
+        if self.fk is None or not self.joints:
+            return None
+        key = self.version['joints']
+        if self._ee[0] != key or self._ee[1] is None:
+            self._ee = (key, self.fk(self.joints))
+        return self._ee[1]
+
+    def update_trail(self) -> bool:
+        """
+        Extend the trail to the end effector at the current joints; return True if it grew.
+
+        The page calls this when it draws (the kinematics run once per drawn state, never
+        while no browser is connected), not once per joint_states message.
+        """
+        pose = self.ee_pose()
+        if pose is not None and self.trail.add(pose[0]):
+            self._bump('trail')
+            return True
+        return False
 
     def set_markers(self, markers: Iterable) -> None:
         """Apply a world/markers MarkerArray's markers."""
