@@ -46,8 +46,8 @@ from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_r
                                            model_matches, named_poses)
 from px100_control.viewer.guard import Guard
 from px100_control.viewer.scene import ViewerScene
-from px100_control.viewer.state import GOAL_STATUS_NAMES, stamp_seconds, Throttle, \
-    ViewerState
+from px100_control.viewer.state import GOAL_STATUS_NAMES, RateLimit, stamp_seconds, \
+    Throttle, ViewerState
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -80,11 +80,10 @@ class ViewerNode(Node):
         self.state = ViewerState(trail_points=trail)
         self._lock = threading.Lock()
         self._actions = collections.deque(maxlen=100)
-        self._pending_goal = None
-        self._pending_ik = None
-        self._goal_throttle = Throttle(DRAG_PERIOD)
-        self._ik_throttle = Throttle(DRAG_PERIOD)
-        self._render_throttle = Throttle(self.period)
+        self._pending_goal = self._pending_ik = None
+        self._goal_throttle, self._ik_throttle = Throttle(DRAG_PERIOD), Throttle(DRAG_PERIOD)
+        self._render_limit = RateLimit(rate)
+        self._last_joints = -math.inf           # arrival of the last joint_states [s]
         self._ik_ids = collections.deque(maxlen=20)
         self._last_id = 0.0
         self.arm, self.poses, self.gripper = None, {}, None     # from robot_description
@@ -173,7 +172,8 @@ class ViewerNode(Node):
     def _on_joint_states(self, msg: JointState) -> None:
         with self._lock:
             self.state.set_joints(msg.name, msg.position, stamp_seconds(msg.header.stamp))
-        self._render()
+        self._last_joints = self._now()
+        self._render()          # at once when the rate allows: no wait for the timer
 
     def _on_markers(self, msg: MarkerArray) -> None:
         with self._lock:
@@ -214,18 +214,19 @@ class ViewerNode(Node):
 
     # -- rendering --------------------------------------------------------------------------
     def _render(self) -> None:
-        """Draw the state if a page is open and 1/rate passed since the last page update."""
+        """Draw what changed if a page is open, at most ``rate`` page updates a second."""
         now = self._now()
-        if not self._render_throttle.due(now):
+        if not self._render_limit.due(now):
             return
         with self._lock:
             sent = self.scene.render(self.state, now)
-        if sent:        # only a real update counts: a new state after an idle tick goes out
-            self._render_throttle.mark(now)
+        if sent:        # only a real update spends the rate
+            self._render_limit.mark(now)
 
     def _on_timer(self) -> None:
         self._run_actions()
-        self._render()
+        if self._now() - self._last_joints >= self.period:
+            self._render()      # joint_states slower than the page (or none): draw here
 
     # -- page -> ROS ------------------------------------------------------------------------
     def _on_action(self, name: str, **values) -> None:

@@ -8,8 +8,8 @@ import sys
 from types import SimpleNamespace as NS
 
 from px100_control.errors import BagError
-from px100_control.viewer.state import apply_markers, interpolate_joint_path, Throttle, Trail, \
-    ViewerState
+from px100_control.viewer.state import apply_markers, interpolate_joint_path, RateLimit, \
+    Throttle, Trail, ViewerState
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -54,6 +54,24 @@ def test_trail_is_bounded_and_throttle_counts_time():
     assert not th.due(5.05) and th.due(5.11)
     with pytest.raises(ValueError, match='at least 2'):
         Trail(max_points=1)
+
+
+def test_rate_limit_draws_arrivals_at_once_within_the_rate():
+    """50 Hz arrivals, 30 Hz limit: 3 of 5 drawn when they arrive; bursts stay bounded."""
+    limit = RateLimit(30.0)
+    drawn = []
+    for k in range(250):                          # 5 s of 50 Hz messages
+        now = 100.0 + 0.02 * k
+        if limit.due(now):
+            limit.mark(now)
+            drawn.append(now)
+    per_second = [sum(1 for t in drawn if s <= t - 100.0 < s + 1) for s in range(1, 5)]
+    assert all(29 <= n <= 31 for n in per_second), per_second
+    gaps = {round(b - a, 3) for a, b in zip(drawn[5:], drawn[6:])}
+    assert gaps <= {0.02, 0.04}, gaps
+    idle = [limit.due(200.0 + 1e-3 * k) and limit.mark(200.0 + 1e-3 * k) is None
+            for k in range(10)]                   # after a pause: at most `burst` at once
+    assert sum(idle) == 2
 
 
 def test_goal_path_interpolates_from_the_current_joints():
