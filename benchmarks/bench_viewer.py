@@ -14,14 +14,17 @@ message stamped with the wall clock (``time.time()``) at publish. Measured:
   subscription, the viewer's rate limit, viser's websocket and the page's React update; the
   3D scene is updated in the same websocket message batch. Measured twice: with the 3D canvas
   drawn (Chromium draws WebGL on the CPU here, SwiftShader, and competes for the cores) and with
-  it hidden (the viewer -> viser -> websocket -> React pipeline alone).
+  it hidden (the viewer -> viser -> websocket -> React pipeline alone);
+- ``latency_websocket_ms``: joint_states stamp -> the status text arriving on viser's websocket
+  at a Python client (no browser): the viewer's own share of the latency.
 
 Goal (issue #16): at most 20 % of a core, p50 at most 50 ms. The load average is recorded: on a
 shared 2-core machine the figures vary with what else runs. Writes
 ``benchmarks/results/viewer.json``. Usage (venv + install sourced): ``python
-benchmarks/bench_viewer.py [--quick]``.
+benchmarks/bench_viewer.py [--quick] [--idle SECONDS]``.
 """
 import argparse
+import asyncio
 import json
 import math
 import os
@@ -123,6 +126,38 @@ class Feeder:
         self.ctx.try_shutdown()
 
 
+async def _websocket_samples(port: int, seconds: float) -> list:
+    """Return [(arrival [ms, wall clock], stamp [s])] of status texts read off viser's socket."""
+    import re
+
+    import msgspec
+    import viser
+    import websockets
+    import zstandard
+    pattern, out = re.compile(rb'state t = ([0-9.]+) s'), []
+    inflate = zstandard.ZstdDecompressor()
+    async with websockets.connect(f'ws://127.0.0.1:{port}', max_size=None,
+                                  subprotocols=[f'viser-v{viser.__version__}']) as ws:
+        # viser counts a client (and the viewer draws for it) once its camera is known
+        await ws.send(msgspec.msgpack.encode({
+            'type': 'ViewerCameraMessage', 'wxyz': [1.0, 0.0, 0.0, 0.0],
+            'position': [0.3, -0.3, 0.2], 'fov': 1.0, 'near': 0.01, 'far': 100.0,
+            'image_height': 700, 'image_width': 1000, 'look_at': [0.1, 0.0, 0.1],
+            'up_direction': [0.0, 0.0, 1.0]}))
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            try:
+                raw = await asyncio.wait_for(ws.recv(), 1.0)
+            except asyncio.TimeoutError:
+                continue
+            arrival = 1e3 * time.time()
+            # [8 bytes] inflated size, [8 bytes] compressed size, zstd msgpack, buffers
+            size, packed = int.from_bytes(raw[:8], 'little'), int.from_bytes(raw[8:16], 'little')
+            inner = inflate.decompress(raw[16:16 + packed], max_output_size=size)
+            out += [(arrival, float(m.group(1))) for m in pattern.finditer(inner)]
+    return [s for s in out if s[1] > 1e9]          # live stamps, not the page's initial 0
+
+
 def _latency(samples) -> dict:
     lat = np.array([1e-3 * t_ms - stamp for t_ms, stamp in samples]) * 1e3
     if not len(lat):
@@ -137,31 +172,59 @@ def _cpu_share(pid: int, seconds: float, sleep=time.sleep) -> float:
     return (_cpu_seconds(pid) - c0) / (time.monotonic() - w0)
 
 
+def _start_viewer():
+    """Start the installed viewer process on PORT and wait for its page (robot loaded)."""
+    import urllib.request
+
+    from px100_control.tools.processes import NodeProcess
+    viewer = NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}'])
+    deadline = time.monotonic() + 60.0
+    while True:
+        try:
+            with urllib.request.urlopen(f'http://127.0.0.1:{PORT}', timeout=2.0):
+                break
+        except OSError:
+            if time.monotonic() > deadline:
+                viewer.stop()
+                raise RuntimeError('viewer page did not come up: ' + viewer.output())
+            time.sleep(0.5)
+    time.sleep(3.0)               # robot loaded, joint_states flowing
+    return viewer
+
+
+def idle_cpu(window: float = 10.0) -> float:
+    """Return the viewer's CPU share [fraction of a core] with 50 Hz joint_states, no browser."""
+    feeder = Feeder()
+    try:
+        viewer = _start_viewer()
+        try:
+            return _cpu_share(viewer.pid, window)
+        finally:
+            viewer.stop()
+    finally:
+        feeder.close()
+
+
 def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
     """Measure the viewer's CPU share without and with a browser, and the page latency."""
     from playwright.sync_api import sync_playwright
-
-    from px100_control.tools.processes import NodeProcess
     window = 5.0 if quick else 15.0
     load0 = os.getloadavg()[0]
     figures = {'rate_hz': RATE_HZ, 'viewer_rate_hz': 30.0, 'window_s': window,
                'viewport': list(viewport)}
     feeder = Feeder()
-    viewer = NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}'])
     try:
-        import urllib.request
-        deadline = time.monotonic() + 60.0
-        while True:
-            try:
-                with urllib.request.urlopen(f'http://127.0.0.1:{PORT}', timeout=2.0):
-                    break
-            except OSError:
-                if time.monotonic() > deadline:
-                    raise RuntimeError('viewer page did not come up: ' + viewer.output())
-                time.sleep(0.5)
-        time.sleep(3.0)               # robot loaded, joint_states flowing
+        viewer = _start_viewer()
+    except BaseException:
+        feeder.close()
+        raise
+    try:
         figures['cpu_no_browser'] = round(_cpu_share(viewer.pid, window), 4)
         log(f"viewer CPU, no browser: {100 * figures['cpu_no_browser']:.1f} % of a core")
+        ws = asyncio.run(_websocket_samples(PORT, window))[10:]   # after the connect replay
+        figures['latency_websocket_ms'] = _latency(ws)
+        log('latency joint_states -> status text on the websocket (a Python client, no '
+            f"browser): {figures['latency_websocket_ms']}")
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path='/usr/bin/chromium',
                                         args=CHROMIUM_ARGS)
@@ -199,6 +262,7 @@ def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
     figures['quick'] = quick
     lat = figures.get('latency_ms', {})
     hid = figures.get('latency_dom_canvas_hidden_ms', {})
+    wsl = figures.get('latency_websocket_ms', {})
     figures['markdown'] = '\n'.join([
         '| viewer (50 Hz joint_states, page rate 30 Hz) | figure | goal |',
         '| --- | --- | --- |',
@@ -207,6 +271,8 @@ def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
         f"| latency joint_states -> page (status text in the DOM) p50 / p95 | {lat.get('p50')} / "
         f"{lat.get('p95')} ms ({lat.get('samples')} samples, {figures.get('page_updates_hz')} "
         'Hz) | p50 <= 50 ms |',
+        f"| joint_states -> status text on viser's websocket (Python client, no browser) p50 / "
+        f"p95 | {wsl.get('p50')} / {wsl.get('p95')} ms ({wsl.get('samples')} samples) | |",
         f"| the same, 3D canvas hidden (no software-WebGL drawing) p50 / p95 | {hid.get('p50')} / "
         f"{hid.get('p95')} ms ({hid.get('samples')} samples, "
         f"{figures.get('page_dom_updates_canvas_hidden_hz')} Hz) | |",
@@ -220,7 +286,17 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description='viewer CPU share and page latency')
     parser.add_argument('--quick', action='store_true', help='short windows')
     parser.add_argument('--viewport', default='1000x700', help='page size WxH [px]')
+    parser.add_argument('--idle', type=float, default=None, metavar='SECONDS',
+                        help='only the CPU share with no browser over SECONDS (printed, '
+                             'not written)')
     args = parser.parse_args(argv)
+    if args.idle is not None:
+        load0 = os.getloadavg()[0]
+        share = idle_cpu(args.idle)
+        print(f'viewer CPU, no browser, 50 Hz joint_states, {args.idle:.0f} s: '
+              f'{100 * share:.1f} % of a core (load average {load0:.2f} -> '
+              f'{os.getloadavg()[0]:.2f})')
+        return 0
     figures = run(args.quick, viewport=tuple(int(v) for v in args.viewport.split('x')))
     print(figures['markdown'])
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)

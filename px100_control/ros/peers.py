@@ -6,7 +6,8 @@ Two ``sim_driver`` (or a real driver beside one) in one namespace publish compet
 twice. Both show up as tracking aborts, so the nodes and the client look for them by name:
 
 - drivers: the nodes publishing ``<ns>/joint_states`` (a ``replayer`` is named separately);
-- trajectory servers: the nodes subscribing ``<ns>/trajectory/goal`` other than recorders.
+- trajectory servers: the nodes subscribing ``<ns>/trajectory/goal`` other than recorders and
+  viewers (which only show the goals).
 
 Names are ``/<namespace>/<node>`` as the graph reports them; two nodes of the same name count
 twice (one endpoint each).
@@ -14,7 +15,7 @@ twice (one endpoint each).
 from typing import Dict, List
 
 #: node names that subscribe or publish the contract's topics without being a driver / server
-PASSIVE_NODES = ('recorder', 'replayer')
+PASSIVE_NODES = ('recorder', 'replayer', 'viewer')
 
 
 #: what the graph reports for an endpoint whose node is not discovered yet

@@ -18,6 +18,10 @@ Parameters: ``host`` ('127.0.0.1'), ``port`` (8080), ``read_only`` (False: no co
 True), ``allow_remote_control`` (False: a host other than loopback forces read-only unless
 True), ``rate`` (30 Hz, 1..60: page updates), ``trail_length`` (500 points),
 ``moving_time`` (1.0 s: shortest move of a control), plus ``robot_model``/``robot_name``.
+The sliders, limits and goals follow the arm of the URDF received on ``robot_description``;
+``robot_model`` gives Home/Sleep when its arm is that URDF's (else Home = zeros, no Sleep).
+Every callback runs through a :class:`~px100_control.viewer.guard.Guard`: in a process shared
+with sim_driver (``bringup --viewer``) a viewer fault is logged and never stops the executor.
 With ``--bag BAG`` it plays a recorded bag in the page instead (no ROS graph needed).
 """
 import collections
@@ -27,7 +31,7 @@ import threading
 import time
 
 from action_msgs.msg import GoalStatusArray
-from builtin_interfaces.msg import Duration, Time
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from px100_control.parameters import VIEWER
@@ -37,17 +41,20 @@ from px100_control.ros.common import (declare_robot_parameters, frame_id,
                                       robot_topic, spin_node, stop_requested)
 from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import declare_schema
+from px100_control.ros.viewer_messages import goal_message, ik_request_message
 from px100_control.viewer.bag_view import serve_bag
 from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_read_only,
-                                           goal_move, GRIPPER_EFFORT)
+                                           goal_move, GRIPPER_EFFORT, gripper_joint,
+                                           model_matches, named_poses)
+from px100_control.viewer.guard import Guard
 from px100_control.viewer.scene import ViewerScene
-from px100_control.viewer.state import GOAL_STATUS_NAMES, stamp_seconds, Throttle, \
-    ViewerState
+from px100_control.viewer.state import GOAL_STATUS_NAMES, RateLimit, stamp_seconds, \
+    Throttle, ViewerState
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 
@@ -55,6 +62,7 @@ class ViewerNode(Node):
     """The viewer node (see the module doc); ``scene`` is built from the parameters."""
 
     def __init__(self, **kwargs):
+        self.guard = Guard(self._report_fault)      # before any callback is registered
         super().__init__('viewer', **robot_node_kwargs('viewer', kwargs))
         self.model = declare_robot_parameters(self)
         declare_schema(self, VIEWER)
@@ -74,21 +82,20 @@ class ViewerNode(Node):
         self.state = ViewerState(trail_points=trail)
         self._lock = threading.Lock()
         self._actions = collections.deque(maxlen=100)
-        self._pending_goal = None
-        self._pending_ik = None
-        self._goal_throttle = Throttle(DRAG_PERIOD)
-        self._ik_throttle = Throttle(DRAG_PERIOD)
-        self._render_throttle = Throttle(self.period)
+        self._pending_goal = self._pending_ik = None
+        self._goal_throttle, self._ik_throttle = Throttle(DRAG_PERIOD), Throttle(DRAG_PERIOD)
+        self._render_limit = RateLimit(rate)
+        self._last_joints = -math.inf           # arrival of the last joint_states [s]
         self._ik_ids = collections.deque(maxlen=20)
         self._last_id = 0.0
-        self._goal_ids = {}
-        arm = [(n, float(lo), float(hi)) for n, lo, hi in
-               zip(self.model.joint_names, self.model.lower, self.model.upper)]
+        self.arm, self.poses, self.gripper = None, {}, None     # from robot_description
         self.scene = ViewerScene(host=str(host), port=int(port), read_only=self.read_only,
-                                 arm_joints=arm, actions=self._on_action,
+                                 actions=self._on_action, guard=self.guard,
                                  title=f'{robot_name(self) or self.model.name} viewer')
         self.scene.attach(self.state)
-        self.url = f'http://{host}:{port}'
+        self.url = self.scene.url
+        if self.scene.port != int(port):
+            self.get_logger().warning(f'port {port} is busy: serving on {self.scene.port}')
         self._base_frame = frame_id(self, self.model.base_frame)
         self.create_subscription(String, robot_topic(self, 'robot_description'),
                                  self._on_description, LATCHED_QOS)
@@ -121,21 +128,54 @@ class ViewerNode(Node):
         self.get_logger().info(f'viewer on {self.url} '
                                f"({'read-only' if self.read_only else 'with controls'})")
 
+    # -- every callback guarded -------------------------------------------------------------
+    def create_subscription(self, msg_type, topic, callback, *args, **kwargs):
+        """Create a subscription whose callback's faults are logged, never raised."""
+        return super().create_subscription(msg_type, topic, self.guard.wrap(callback),
+                                           *args, **kwargs)
+
+    def create_timer(self, period, callback, *args, **kwargs):
+        """Create a timer whose callback's faults are logged, never raised."""
+        return super().create_timer(period, self.guard.wrap(callback), *args, **kwargs)
+
+    def _report_fault(self, text: str) -> None:
+        self.get_logger().error(text)
+        if self._lock.acquire(timeout=1.0):
+            try:
+                self.state.set_error(f'viewer {text}')
+            finally:
+                self._lock.release()
+
     # -- ROS -> state -----------------------------------------------------------------------
     def _now(self) -> float:
         return time.monotonic()
 
     def _on_description(self, msg: String) -> None:
+        if msg.data == self.state.urdf_xml and self.scene.kin is not None:
+            return
         with self._lock:
             self.state.set_robot(msg.data)
             self.scene.load_robot(self.state)
-            if self.state.robot_error:
-                self.get_logger().error(self.state.robot_error)
+            self._take_arm(self.scene.kin)
+        if self.state.robot_error:
+            self.get_logger().error(self.state.robot_error)
+
+    def _take_arm(self, kin) -> None:
+        """Take the arm, Home/Sleep and gripper of the URDF just loaded (kin None: none)."""
+        self.arm = kin.arm if kin is not None else None
+        self.poses = named_poses(kin.arm, self.model) if kin is not None else {}
+        self.gripper = gripper_joint(self.model, kin.actuated) if kin is not None else None
+        self.scene.show_button('sleep', self.poses.get('sleep') is not None)
+        if kin is not None and not model_matches(kin.arm, self.model):
+            self.get_logger().warning(
+                f'robot_description arm {list(kin.arm.joint_names)} is not robot_model '
+                f'{self.model.name}: sliders from the URDF, Home = zeros, no Sleep')
 
     def _on_joint_states(self, msg: JointState) -> None:
         with self._lock:
             self.state.set_joints(msg.name, msg.position, stamp_seconds(msg.header.stamp))
-        self._render()
+        self._last_joints = self._now()
+        self._render()          # at once when the rate allows: no wait for the timer
 
     def _on_markers(self, msg: MarkerArray) -> None:
         with self._lock:
@@ -176,16 +216,19 @@ class ViewerNode(Node):
 
     # -- rendering --------------------------------------------------------------------------
     def _render(self) -> None:
+        """Draw what changed if a page is open, at most ``rate`` page updates a second."""
         now = self._now()
-        if not self._render_throttle.due(now):
+        if not self._render_limit.due(now):
             return
-        self._render_throttle.mark(now)
         with self._lock:
-            self.scene.render(self.state, now)
+            sent = self.scene.render(self.state, now)
+        if sent:        # only a real update spends the rate
+            self._render_limit.mark(now)
 
     def _on_timer(self) -> None:
         self._run_actions()
-        self._render()
+        if self._now() - self._last_joints >= self.period:
+            self._render()      # joint_states slower than the page (or none): draw here
 
     # -- page -> ROS ------------------------------------------------------------------------
     def _on_action(self, name: str, **values) -> None:
@@ -196,12 +239,7 @@ class ViewerNode(Node):
         now = self._now()
         while self._actions:
             name, values = self._actions.popleft()
-            try:
-                self._act(name, values)
-            except Exception as exc:  # noqa: B902 - a bad action must not stop the node
-                self.get_logger().error(f'viewer action {name} failed: {exc}')
-                with self._lock:
-                    self.state.set_error(f'viewer {name}: {exc}')
+            self.guard.call(name, self._act, name, values)
         if self._pending_goal is not None and self._goal_throttle.due(now):
             self._goal_throttle.mark(now)
             self.send_goal(self._pending_goal)
@@ -219,8 +257,10 @@ class ViewerNode(Node):
         elif name == 'ee_target':
             self._pending_ik = (values['position'], values.get('quat_xyzw'))
         elif name in ('home', 'sleep'):
-            pose = self.model.home if name == 'home' else self.model.sleep
-            self.send_goal(dict(zip(self.model.joint_names, (float(v) for v in pose))))
+            if self.poses.get(name) is None:
+                raise ValueError(f'no {name} pose for this robot (robot_model '
+                                 f'{self.model.name}, no robot_description or another arm)')
+            self.send_goal(dict(zip(self.arm.joint_names, self.poses[name])))
         elif name in ('gripper_open', 'gripper_close'):
             self.send_gripper(GRIPPER_EFFORT if name == 'gripper_open' else -GRIPPER_EFFORT)
         elif name == 'reset_scene':
@@ -238,32 +278,16 @@ class ViewerNode(Node):
 
     def send_goal(self, positions: dict) -> Time:
         """Publish a one-point trajectory goal to positions (joint -> rad/m); return its id."""
-        names, target, t = goal_move(self.model, positions, self.state.joints,
-                                     self.moving_time)
-        msg = JointTrajectory()
-        msg.header.stamp = self._new_id()
-        msg.header.frame_id = self._base_frame
-        msg.joint_names = names
-        pt = JointTrajectoryPoint(positions=target)
-        ns = int(round(t * 1e9))
-        pt.time_from_start = Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-        msg.points = [pt]
+        if self.arm is None:
+            raise ValueError('no robot_description received yet: no arm to move')
+        names, target, t = goal_move(self.arm, positions, self.state.joints, self.moving_time)
+        msg = goal_message(self._new_id(), self._base_frame, names, target, t)
         self.pub_goal.publish(msg)
         return msg.header.stamp
 
     def send_ik_request(self, position, quat_xyzw=None) -> Time:
         """Publish an ik/request (quat None = orientation free); its solution becomes a goal."""
-        msg = PoseStamped()
-        msg.header.stamp = self._new_id()
-        msg.header.frame_id = self._base_frame
-        msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = \
-            (float(v) for v in position)
-        if quat_xyzw is not None:
-            q = msg.pose.orientation
-            q.x, q.y, q.z, q.w = (float(v) for v in quat_xyzw)
-        else:
-            q = msg.pose.orientation
-            q.x = q.y = q.z = q.w = 0.0
+        msg = ik_request_message(self._new_id(), self._base_frame, position, quat_xyzw)
         self._ik_ids.append((msg.header.stamp.sec, msg.header.stamp.nanosec))
         self.pub_ik.publish(msg)
         return msg.header.stamp
@@ -274,18 +298,13 @@ class ViewerNode(Node):
             return
         self._ik_ids.remove(key)
         if len(msg.position) and all(math.isfinite(v) for v in msg.position):
-            try:
-                self.send_goal(dict(zip(msg.name, msg.position)))
-            except ValueError as exc:
-                with self._lock:
-                    self.state.set_error(f'viewer: {exc}')
+            self.send_goal(dict(zip(msg.name, msg.position)))
 
     def send_gripper(self, effort: float) -> None:
         """Drive the gripper with effort [N*m] (> 0 opens), as the client's release/grasp."""
-        gripper = self.model.gripper
-        if gripper is None:
-            raise ValueError(f'robot {self.model.name} has no gripper')
-        msg = JointState(name=[gripper.joint], effort=[float(effort)])
+        if self.gripper is None:
+            raise ValueError(f'no gripper joint (robot_model {self.model.name}) in the URDF')
+        msg = JointState(name=[self.gripper], effort=[float(effort)])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.pub_setpoints.publish(msg)
 
@@ -303,7 +322,7 @@ class ViewerNode(Node):
                 text = f'{what}: failed ({exc})'
             with self._lock:
                 self.state.set_note(text)
-        client.call_async(request).add_done_callback(done)
+        client.call_async(request).add_done_callback(self.guard.wrap(done, what))
 
     def destroy_node(self):
         """Stop the web server too."""

@@ -145,7 +145,9 @@ def serve_bag(path: str, host: str = '127.0.0.1', port: int = 8080,
                             initial_value=0.0, order=-2)
     play = gui.add_checkbox('Play', False, order=-1)
     speed = gui.add_slider('speed', min=0.1, max=4.0, step=0.1, initial_value=1.0, order=-1)
-    print(f'viewer: {path} ({timeline.duration:.1f} s) on http://{host}:{port}', flush=True)
+    if scene.port != int(port):
+        print(f'viewer: port {port} is busy: serving on {scene.port}', file=sys.stderr)
+    print(f'viewer: {path} ({timeline.duration:.1f} s) on {scene.url}', flush=True)
     start = time.monotonic()
     last_t, last = None, time.monotonic()
     try:

@@ -5,7 +5,9 @@ The live page's sliders, buttons and gizmo end in a trajectory goal, an IK reque
 effort; here are the settings they are checked against and the goal a control's move makes.
 Joint positions [rad] (m for prismatic joints), times [s], efforts [N*m].
 """
-from typing import Dict, List, Tuple
+from typing import Dict, List, Optional, Tuple
+
+from px100_control.viewer.robot import ArmJoints, clip_pose
 
 from px100_control.parameters import VIEWER
 
@@ -42,14 +44,38 @@ def forced_read_only(host: str, read_only: bool, allow_remote_control: bool) -> 
     return str(host) not in LOOPBACK and not read_only and not allow_remote_control
 
 
+def model_matches(arm: ArmJoints, model) -> bool:
+    """Return True when a robot model has the URDF arm's joints, in the same order."""
+    return model is not None and tuple(model.joint_names) == tuple(arm.joint_names)
+
+
+def named_poses(arm: ArmJoints, model) -> Dict[str, Optional[Tuple[float, ...]]]:
+    """
+    Return the Home and Sleep poses (one value per arm joint, or None) of the URDF's arm.
+
+    From the robot model when it matches the URDF (:func:`model_matches`); otherwise Home is
+    all zeros (clipped into the limits) and there is no Sleep pose.
+    """
+    if model_matches(arm, model):
+        return {'home': clip_pose(arm, model.home), 'sleep': clip_pose(arm, model.sleep)}
+    return {'home': clip_pose(arm, [0.0] * len(arm.joint_names)), 'sleep': None}
+
+
+def gripper_joint(model, actuated) -> Optional[str]:
+    """Return the gripper servo joint of the model if the URDF has it actuated, else None."""
+    gripper = getattr(model, 'gripper', None)
+    return gripper.joint if gripper is not None and gripper.joint in actuated else None
+
+
 def goal_move(model, positions: Dict[str, float], joints_now: Dict[str, float],
               moving_time: float) -> Tuple[List[str], List[float], float]:
     """
     Return (joint names, target positions, move time [s]) of a control's one-point goal.
 
-    The names are the model's arm joints found in ``positions``, in model order; the time is
-    ``moving_time`` or longer, so that no joint moves faster than SPEED_FRACTION of its
-    velocity limit from ``joints_now`` (joints not in it do not lengthen the move).
+    model: the arm's joints and limits (an :class:`~px100_control.viewer.robot.ArmJoints` or a
+    RobotModel). The names are the model's arm joints found in ``positions``, in model order;
+    the time is ``moving_time`` or longer, so that no joint moves faster than SPEED_FRACTION of
+    its velocity limit from ``joints_now`` (joints not in it do not lengthen the move).
 
     :raises ValueError: a target outside its joint's limits
     """

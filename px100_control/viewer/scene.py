@@ -12,17 +12,25 @@ Controls (absent in read-only mode) report the user's actions through ``actions`
 and ``home``, ``sleep``, ``gripper_open``, ``gripper_close``, ``reset_scene``, ``torque_on``,
 ``torque_off``. They run in viser's threads: the adapter must hand them to its own thread.
 
-Cost: :meth:`ViewerScene.render` does nothing while no browser is connected; a browser that
-connects gets everything redrawn.
+Cost: :meth:`ViewerScene.render` does nothing while no browser is connected (no kinematics,
+no messages); a browser that connects gets everything redrawn. A render sends one atomic batch
+and flushes it (no wait for viser's next send window).
+
+Safety: viser's Share button (a public tunnel through share.viser.studio) is hidden and the
+server refuses share requests from any page, so the page is reachable only where it is bound.
+The page's handlers run through ``guard`` (a :class:`~px100_control.viewer.guard.Guard`): a
+fault is reported, never raised into viser's threads.
 """
 import io
+import sys
 import threading
 import time
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from px100_control.kinematics.rotations import matrix_to_quaternion
+from px100_control.viewer.guard import Guard
+from px100_control.viewer.robot import UrdfRobot
 from px100_control.viewer.state import ViewerState
 
 #: buttons of the controls panel: (action name, label)
@@ -31,8 +39,6 @@ BUTTONS = (('home', 'Home'), ('sleep', 'Sleep'), ('gripper_open', 'Open gripper'
            ('torque_on', 'Torque on'), ('torque_off', 'Torque off'))
 #: seconds after the user's last slider or gizmo input before they follow the robot again
 FOLLOW_DELAY = 1.5
-#: end-effector link names tried in order (suffix match after the robot-name prefix)
-EE_LINKS = ('ee_gripper_link', 'ee_arm_link', 'ee_link', 'tool0')
 
 
 def _wxyz(quat_xyzw: Sequence[float]) -> Tuple[float, float, float, float]:
@@ -44,64 +50,74 @@ def _rgb255(rgba: Sequence[float]) -> Tuple[int, int, int]:
     return tuple(int(round(255 * min(1.0, max(0.0, float(c))))) for c in rgba[:3])
 
 
-class UrdfKinematics:
-    """
-    Forward kinematics of a URDF text through yourdfpy (its own model, not the drawn one).
+def _refuse_share_url(*args, **kwargs) -> None:
+    """Stand in for ViserServer.request_share_url: no public tunnel, ever (returns None)."""
+    return None
 
-    :raises ValueError: the text is not a loadable URDF
-    """
 
-    def __init__(self, urdf_xml: str, load_meshes: bool = False):
-        import yourdfpy  # optional: with trimesh ~0.5 s to import, loaded with a URDF
+def disable_sharing(server) -> None:
+    """
+    Hide viser's Share button and make the server refuse share-URL requests.
+
+    The page's Share button would open a public tunnel (share.viser.studio) to this server,
+    around its bind address and read-only rule. The client->server ShareUrlRequest and
+    ShareUrlDisconnect handlers are removed (a page that sends one anyway gets nothing) and
+    request_share_url returns None.
+    """
+    from viser import _messages  # optional: viser is loaded with the scene
+    server.gui.configure_theme(show_share_button=False)
+    websock = server._websock_server       # viser 1.1.1 (pinned): where client messages land
+    for message in (_messages.ShareUrlRequest, _messages.ShareUrlDisconnect):
         try:
-            self.urdf = yourdfpy.URDF.load(
-                io.BytesIO(urdf_xml.encode('utf-8')), build_scene_graph=True,
-                build_collision_scene_graph=False, load_meshes=load_meshes,
-                load_collision_meshes=False)
-        except Exception as exc:  # noqa: B902 - yourdfpy/lxml raise many kinds
-            raise ValueError(f'robot_description is not a usable URDF: {exc}') from None
-        self.base = self.urdf.base_link
-        links = list(self.urdf.link_map)
-        self.ee = next((lk for suffix in EE_LINKS for lk in links
-                        if lk == suffix or lk.endswith('/' + suffix)), links[-1])
-        self.actuated = set(self.urdf.actuated_joint_names)
-        self._lock = threading.Lock()
+            websock.unregister_handler(message)
+        except AssertionError:             # not registered: nothing to refuse
+            pass
+    server.request_share_url = _refuse_share_url
 
-    def ee_pose(self, joints: Dict[str, float]):
-        """Return the end effector's (xyz [m], quat_xyzw) in the base frame for joints."""
-        cfg = {n: v for n, v in joints.items() if n in self.actuated}
-        with self._lock:
-            if cfg:
-                self.urdf.update_cfg(cfg)
-            T = self.urdf.get_transform(self.ee, self.base)
-        return tuple(float(v) for v in T[:3, 3]), matrix_to_quaternion(T[:3, :3])
+
+def _drawn_urdf(urdf_xml: str):
+    """Return the yourdfpy URDF with visual meshes and scene graph that viser draws."""
+    import yourdfpy  # optional: with trimesh ~0.5 s to import, loaded with a URDF
+    try:
+        return yourdfpy.URDF.load(io.BytesIO(urdf_xml.encode('utf-8')), build_scene_graph=True,
+                                  build_collision_scene_graph=False, load_meshes=True,
+                                  load_collision_meshes=False)
+    except Exception as exc:  # noqa: B902 - yourdfpy/lxml raise many kinds
+        raise ValueError(f'robot_description is not a usable URDF: {exc}') from None
 
 
 class ViewerScene:
     """
     The page: a viser server drawing a ViewerState, with optional controls.
 
-    :param host/port: where viser listens (127.0.0.1 unless asked otherwise)
+    :param host/port: where viser listens (127.0.0.1 unless asked otherwise); when the port is
+        busy viser takes the next free one: :attr:`port` is the one bound
     :param read_only: no sliders, buttons or gizmo at all
-    :param arm_joints: ((name, lower, upper), ...) of the arm's sliders [rad or m]
     :param actions: callable(name, **values) for the user's actions (see the module doc)
+    :param guard: wraps the page's handlers (default: faults printed to stderr)
     :param server: an existing viser server to draw into (then host/port are unused)
+
+    The joint sliders are the arm joints of the loaded URDF (:meth:`load_robot`), with its
+    limits.
     """
 
     def __init__(self, host: str = '127.0.0.1', port: int = 8080, read_only: bool = True,
-                 arm_joints: Sequence[Tuple[str, float, float]] = (),
                  actions: Optional[Callable] = None, title: str = 'px100_control',
-                 server=None):
+                 server=None, guard: Optional[Guard] = None):
         import viser  # optional: ~1 s to import, loaded with the scene
         self.server = server or viser.ViserServer(host=host, port=port, label=title,
                                                   verbose=False)
+        disable_sharing(self.server)
+        self.host = str(host)
+        self.guard = guard or Guard(lambda text: print(f'viewer: {text}', file=sys.stderr))
         self.read_only = bool(read_only)
         self.actions = actions or (lambda name, **values: None)
-        self.arm_joints = tuple(arm_joints)
         self._lock = threading.RLock()
         self._drawn: Dict[str, int] = {}
         self._urdf_vis = None
-        self.kin: Optional[UrdfKinematics] = None
+        self._moving = None
+        self._posed: Dict[str, float] = {}
+        self.kin: Optional[UrdfRobot] = None
         self._bodies: Dict = {}
         self._handles: Dict = {}
         self._redraw = False
@@ -116,23 +132,29 @@ class ViewerScene:
         self.buttons = {}
         self.gizmo = None
         self.orientation_box = None
+        self._joints_folder = None
         if not self.read_only:
             self._add_controls()
-        self.server.on_client_connect(self._on_connect)
+        self.server.on_client_connect(self.guard.wrap(self._on_connect))
+
+    @property
+    def port(self) -> int:
+        """Return the TCP port the page is served on (the one bound, not the one asked)."""
+        return int(self.server.get_port())
+
+    @property
+    def url(self) -> str:
+        """Return the page's address, http://host:port with the bound port."""
+        return f'http://{self.host}:{self.port}'
 
     # -- controls ----------------------------------------------------------------------------
     def _add_controls(self) -> None:
-        gui = self.server.gui
-        with gui.add_folder('Joints', order=1):
-            for name, lo, hi in self.arm_joints:
-                s = gui.add_slider(name, min=float(lo), max=float(hi), step=0.01,
-                                   initial_value=float(min(max(0.0, lo), hi)))
-                s.on_update(self._on_slider)
-                self.sliders[name] = s
+        gui, wrap = self.server.gui, self.guard.wrap
+        self._joints_folder = gui.add_folder('Joints', order=1)
         with gui.add_folder('Actions', order=2):
             for action, label in BUTTONS:
                 b = gui.add_button(label)
-                b.on_click(lambda event, a=action: self._user(a))
+                b.on_click(wrap(lambda event, a=action: self._user(a), f'{action} button'))
                 self.buttons[action] = b
             self.orientation_box = gui.add_checkbox(
                 'Gizmo orientation', False,
@@ -141,11 +163,27 @@ class ViewerScene:
         self.gizmo = self.server.scene.add_transform_controls(
             '/ee_target_gizmo', scale=0.1, line_width=3.0, depth_test=False,
             disable_rotations=True)
-        self.gizmo.on_update(self._on_gizmo)
+        self.gizmo.on_update(wrap(self._on_gizmo))
+        self.orientation_box.on_update(wrap(self._on_orientation_box))
 
-        @self.orientation_box.on_update
-        def _(event) -> None:
-            self.gizmo.disable_rotations = not self.orientation_box.value
+    def _set_sliders(self, arm) -> None:
+        """Replace the joint sliders by one per arm joint of the URDF, within its limits."""
+        for s in self.sliders.values():
+            s.remove()
+        self.sliders = {}
+        if self._joints_folder is None:
+            return
+        with self._joints_folder:
+            for name, lo, hi in zip(arm.joint_names, arm.lower, arm.upper):
+                s = self.server.gui.add_slider(name, min=lo, max=hi, step=0.01,
+                                               initial_value=min(max(0.0, lo), hi))
+                s.on_update(self.guard.wrap(self._on_slider))
+                self.sliders[name] = s
+
+    def show_button(self, action: str, visible: bool) -> None:
+        """Show or hide one action button (no effect on a read-only page)."""
+        if action in self.buttons:
+            self.buttons[action].visible = bool(visible)
 
     def _now(self) -> float:
         return time.monotonic()
@@ -169,6 +207,9 @@ class ViewerScene:
         self._user('ee_target', position=tuple(float(v) for v in event.target.position),
                    quat_xyzw=quat)
 
+    def _on_orientation_box(self, event) -> None:
+        self.gizmo.disable_rotations = not self.orientation_box.value
+
     def _on_connect(self, client) -> None:
         # no lock here: viser may call this while it holds its own locks, which render()
         # takes after self._lock
@@ -187,8 +228,9 @@ class ViewerScene:
         """
         Send what changed in state since the last render; return True if anything was sent.
 
-        Nothing happens while no browser is connected (unless force). now [s] decides when the
-        controls follow the robot again after the user's last input.
+        Nothing happens while no browser is connected (unless force): the trail grows only
+        here, one end-effector pose per drawn state. now [s] decides when the controls follow
+        the robot again after the user's last input.
         """
         if not force and not self.has_clients():
             return False
@@ -196,6 +238,7 @@ class ViewerScene:
             if self._redraw:
                 self._redraw = False
                 self._drawn.clear()
+            state.update_trail()
             changed = [p for p in state.PARTS if self._drawn.get(p) != state.version[p]]
             if not changed:
                 return False
@@ -203,25 +246,60 @@ class ViewerScene:
                 for part in changed:
                     getattr(self, '_draw_' + part)(state, now)
                     self._drawn[part] = state.version[part]
+            self.server.flush()        # send now, not at viser's next window
         return True
 
     def load_robot(self, state: ViewerState) -> None:
-        """(Re)load the robot of state.urdf_xml; a bad URDF is reported in state.robot_error."""
+        """
+        (Re)load the robot of state.urdf_xml and its joint sliders.
+
+        A URDF that cannot be used is reported in state.robot_error (the page says why).
+        """
         from viser.extras import ViserUrdf  # optional: viser is loaded with the scene
         with self._lock:
             if self._urdf_vis is not None:
                 self._urdf_vis.remove()
-                self._urdf_vis = None
+                self._urdf_vis, self._moving = None, None
             try:
-                self.kin = UrdfKinematics(state.urdf_xml)
-                drawn = UrdfKinematics(state.urdf_xml, load_meshes=True).urdf
+                self.kin = UrdfRobot(state.urdf_xml)
+                drawn = _drawn_urdf(state.urdf_xml)
                 self._urdf_vis = ViserUrdf(self.server, drawn, root_node_name='/robot')
                 state.robot_error = ''
             except ValueError as exc:
                 self.kin = None
                 state.robot_error = str(exc)
+            else:
+                self._place_frames(drawn)
+                self._set_sliders(self.kin.arm)
             state.version['status'] += 1
             self._drawn.pop('joints', None)
+
+    def _place_frames(self, drawn) -> None:
+        """Pose every link frame once at q = 0; keep the moving ones for :meth:`_pose_robot`."""
+        self._urdf_vis.update_cfg(dict.fromkeys(drawn.actuated_joint_names, 0.0))
+        joints = getattr(self._urdf_vis, '_joint_map_values', None)   # viser 1.1.1's
+        frames = getattr(self._urdf_vis, '_joint_frames', None)
+        if joints is not None and frames is not None and len(joints) == len(frames):
+            self._moving = [(j.name, f) for j, f in zip(joints, frames)
+                            if j.name in self.kin.joints]
+            self._posed = {}
+
+    def _pose_robot(self, joints: Dict[str, float]) -> None:
+        """Move the drawn robot's moving links to joints (only those frames are sent)."""
+        if self._moving is None:
+            self._urdf_vis.update_cfg({n: v for n, v in joints.items()
+                                       if n in self.kin.actuated})
+            return
+        for name, frame in self._moving:
+            value = self.kin.value(name, joints)
+            if value is None or abs(value - self._posed.get(name, float('nan'))) < 1e-6:
+                continue        # unknown or unchanged (nan: never posed) -> nothing to send
+            self._posed[name] = value
+            xyz, wxyz = self.kin.local_pose(name, value)
+            if self.kin.joints[name].kind == 'prismatic':
+                frame.position = xyz
+            else:           # a rotation about the joint's origin: the position never changes
+                frame.wxyz = wxyz
 
     def _draw_robot(self, state: ViewerState, now: float) -> None:
         if state.urdf_xml and (self.kin is None or self._urdf_vis is None) and \
@@ -231,8 +309,7 @@ class ViewerScene:
     def _draw_joints(self, state: ViewerState, now: float) -> None:
         if self._urdf_vis is None or not state.joints:
             return
-        cfg = {n: v for n, v in state.joints.items() if n in self.kin.actuated}
-        self._urdf_vis.update_cfg(cfg)
+        self._pose_robot(state.joints)
         following = now - self._last_user_input > FOLLOW_DELAY and not self._dragging
         if not following:
             return

@@ -139,3 +139,34 @@ def test_read_only_viewer_shows_a_replayed_bag(browser, node_process, tmp_path):
         assert dark_pixels(canvas_pixels(page)) > 3000
     finally:
         page.close()
+
+
+def test_a_busy_port_gives_the_bound_url(node_process, tmp_path):
+    """
+    A port held by another socket: viser binds the next free one, and that URL is printed.
+
+    Both the live viewer (its log line) and ``viewer --bag`` name the port really bound, and
+    the page answers there.
+    """
+    import re
+    import socket
+
+    from bag_support import write_run_bag
+    busy = PORT_BASE + 25
+    holder = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    holder.bind(('127.0.0.1', busy))
+    holder.listen(1)
+    bag = str(tmp_path / 'run')
+    write_run_bag(bag, seconds=0.5)
+    try:
+        live = node_process('viewer', '--ros-args', '-p', f'port:={busy}')
+        played = node_process('viewer', '--bag', bag, '--port', str(busy))
+        for proc, pattern in ((live, r'viewer on http://127\.0\.0\.1:(\d+) '),
+                              (played, r'\(\d+\.\d s\) on http://127\.0\.0\.1:(\d+)')):
+            assert wait_for(lambda: re.search(pattern, proc.output()), 60.0), \
+                proc.output()[-2000:]
+            port = int(re.search(pattern, proc.output()).group(1))
+            assert port != busy and f'port {busy} is busy: serving on {port}' in proc.output()
+            assert wait_http(f'http://127.0.0.1:{port}', 30.0)
+    finally:
+        holder.close()
