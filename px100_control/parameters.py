@@ -16,6 +16,8 @@ from dataclasses import dataclass, replace
 import math
 from typing import Any, Dict, Iterable, List, Optional, Tuple
 
+import yaml
+
 INF = math.inf
 
 
@@ -453,7 +455,6 @@ def check_params(data: dict, schemas: Optional[Dict[str, NodeSchema]] = None,
 
 def check_params_file(path: str, schemas: Optional[Dict[str, NodeSchema]] = None) -> List[str]:
     """Load a ``--params-file`` YAML and return its problems (empty when it is valid)."""
-    import yaml
     with open(path, encoding='utf-8') as f:
         data = yaml.safe_load(f)
     return check_params(data, schemas, source=path)

@@ -212,9 +212,7 @@ def test_no_import_cycles():
 #: function-level imports in code that the parameter-schema change moves out of ros/common.py
 #: and ros/parameter_schema.py: (module, function, imported module). The test fails once one is
 #: gone (then delete it here).
-PENDING_LAZY = {('px100_control.ros.common', 'parameter_descriptor', 'rcl_interfaces.msg'),
-                ('px100_control.ros.common', 'declare_schema', 'rcl_interfaces.msg'),
-                ('px100_control.ros.parameter_schema', 'check_params_file', 'yaml')}
+PENDING_LAZY = set()
 _OPTIONAL = re.compile(r'#\s*optional:\s*\S')
 
 

@@ -16,6 +16,7 @@ from geometry_msgs.msg import PoseStamped
 from px100_control.wire.cdr import (clock, diagnostic_status, JointStateWriter,
                                     read_pose_stamped, string_message, trajectory_shape)
 from rclpy.serialization import deserialize_message, serialize_message
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -53,8 +54,6 @@ def matches_rclpy() -> bool:
 
 def clock_matches_rclpy() -> bool:
     """Return True when the running middleware reads :func:`clock` bytes as the sample times."""
-    from rclpy.serialization import deserialize_message
-    from rosgraph_msgs.msg import Clock
     for sec, nanosec in ((0, 0), (12, 999_999_999), (2 ** 31 - 1, 4)):
         msg = Clock()
         msg.clock.sec, msg.clock.nanosec = sec, nanosec

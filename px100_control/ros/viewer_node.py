@@ -4,24 +4,18 @@ viewer: a live 3D page of the robot and its world in the browser (viser), with t
 ``ros2 run px100_control viewer`` serves http://127.0.0.1:8080 (parameters ``host``, ``port``).
 The node is a thin adapter over :mod:`px100_control.viewer` (state + viser scene, no rclpy):
 
-- sub ``robot_description`` (transient local), ``joint_states``, ``world/markers`` (MarkerArray,
-  transient local), ``world/held_object`` (String, transient local), ``trajectory/goal``,
-  ``trajectory/status`` (transient local), ``ik/request``, ``ik/solution``, ``ik/status``,
-  ``/diagnostics``: the page shows the robot, the world, the end-effector trail, the active
-  trajectory's path and target, the last IK target, the goal status and the last error;
-- controls act only through the interfaces a script uses: sliders and Home/Sleep publish
-  ``trajectory/goal``; the end-effector gizmo publishes ``ik/request`` and then a goal to the
-  matching ``ik/solution``; the gripper buttons publish ``commands/joint_setpoints`` (effort,
-  as the client's grasp/release); ``world/reset`` (Trigger) and ``torque_enable`` (SetBool).
+- it subscribes to ``robot_description``, ``joint_states``, ``world/markers``,
+  ``world/held_object``, ``trajectory/goal`` and ``status``, ``ik/request``, ``solution`` and
+  ``status``, ``/diagnostics`` (docs/ros_interfaces.md) and shows them on the page;
+- controls act only through the interfaces a script uses: ``trajectory/goal`` (sliders,
+  Home/Sleep), ``ik/request`` then a goal to the matching ``ik/solution`` (gizmo),
+  ``commands/joint_setpoints`` (gripper effort), ``world/reset`` and ``torque_enable``.
 
-Parameters: ``host`` ('127.0.0.1'), ``port`` (8080), ``read_only`` (False: no controls when
-True), ``allow_remote_control`` (False: a host other than loopback forces read-only unless
-True), ``rate`` (30 Hz, 1..60: page updates), ``trail_length`` (500 points),
-``moving_time`` (1.0 s: shortest move of a control), plus ``robot_model``/``robot_name``.
-The sliders, limits and goals follow the arm of the URDF received on ``robot_description``;
-``robot_model`` gives Home/Sleep when its arm is that URDF's (else Home = zeros, no Sleep).
-Every callback runs through a :class:`~px100_control.viewer.guard.Guard`: in a process shared
-with sim_driver (``bringup --viewer``) a viewer fault is logged and never stops the executor.
+Parameters: :data:`px100_control.parameters.VIEWER` (``--help`` lists them); a host other than
+loopback forces read-only unless ``allow_remote_control``. Sliders, limits and goals follow the
+arm of the received URDF; ``robot_model`` gives Home/Sleep when its arm is that URDF's. Every
+callback runs through a :class:`~px100_control.viewer.guard.Guard`: in a process shared with
+sim_driver (``bringup --viewer``) a viewer fault is logged and never stops the executor.
 With ``--bag BAG`` it plays a recorded bag in the page instead (no ROS graph needed).
 """
 import collections

@@ -14,6 +14,7 @@ from typing import List, Optional, Sequence
 from builtin_interfaces.msg import Time
 from px100_control.bag.world import MARKER_TYPE, markers_from_decoded, WorldMarker
 from px100_control.wire.cdr import PatchedTemplate, unique_offset
+from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
 
@@ -70,7 +71,6 @@ def raw_marker_writer(msg: MarkerArray, movable: Sequence[int]) -> Optional[Patc
 
     :param movable: indices of the markers whose poses change
     """
-    from rclpy.serialization import deserialize_message, serialize_message
     probe = deserialize_message(serialize_message(msg), MarkerArray)
     for k, marker in enumerate(probe.markers):
         marker.header.stamp.sec, marker.header.stamp.nanosec = 0x5EC0_0000 + k, 0x1F00_0000 + k

@@ -7,9 +7,8 @@ Joint positions [rad] (m for prismatic joints), times [s], efforts [N*m].
 """
 from typing import Dict, List, Optional, Tuple
 
-from px100_control.viewer.robot import ArmJoints, clip_pose
-
 from px100_control.parameters import VIEWER
+from px100_control.viewer.robot import ArmJoints, clip_pose
 
 #: hosts a page with controls may be served on without ``allow_remote_control``
 LOOPBACK = ('127.0.0.1', 'localhost', '::1')

@@ -13,7 +13,6 @@ import math
 from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
-
 from px100_control.kinematics.rotations import matrix_to_quaternion
 
 #: end-effector link names tried in order (suffix match after the robot-name prefix)
