@@ -333,8 +333,7 @@ def _add_arguments(parser) -> None:
 
 def main(args=None) -> int:
     """Run the viewer (``ros2 run px100_control viewer``), or play a bag with ``--bag``."""
-    description = ('Serve a live 3D page of the robot (http://127.0.0.1:8080) with joint '
-                   'sliders, an end-effector gizmo and buttons, or play a bag with --bag.')
+    description = 'Serve the live 3D page of the robot and its world, or play a bag with --bag.'
     options, _ = parse_cli(description, args, _add_arguments, (VIEWER,))
     if options.bag:     # no node: SIGINT / SIGTERM end the page loop as they end a spin
         install_stop_signals()
