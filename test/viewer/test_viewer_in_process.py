@@ -79,14 +79,14 @@ def test_viewer_faults_never_stop_the_nodes_in_its_process(rclpy_context, spin_n
                         30.0), 'the robot_description fault was not logged'
         line = rosout.errors('set_joints')[0]
         assert line.startswith('on_joint_states failed: RuntimeError') and '(at ' in line
-        assert viewer.guard.faults > 10                     # one per joint_states message
+        assert wait_for(lambda: viewer.guard.faults > 10, 30.0)   # one per joint_states
         assert 'injected fault' in viewer.state.last_error
         # the robot's nodes in the same executor go on
         n0 = len(counts)
         time.sleep(1.0)
         assert len(counts) - n0 > 20, f'{len(counts) - n0} joint_states in 1 s'
-        key = watcher.send_goal(HOME[0], (0.4, -0.2, 0.2, 0.1), moving_time=1.0)
-        assert watcher.wait_goal(key, 30.0) == 'SUCCEEDED'
+        key = watcher.send_goal(HOME[0], (0.4, -1.2, 1.0, 0.5), moving_time=3.0)
+        assert watcher.wait_goal(key, 60.0) == 'SUCCEEDED'
         assert abs(watcher.position('waist') - 0.4) < 0.05
         assert bringup.thread.is_alive()
         # the viewer, which only shows trajectory/goal, is no second trajectory_server
@@ -122,9 +122,12 @@ def test_viewer_takes_another_robot_from_its_urdf(browser, rclpy_context, spin_n
         assert wait_for(lambda: viewer.arm is not None, 60.0), viewer.state.robot_error
         assert viewer.arm.joint_names == tuple(wx250s.joint_names)
         assert viewer.poses['sleep'] is None and viewer.poses['home'] == (0.0,) * 6
+        # the viewer also takes trajectory/goal: wait for trajectory_server's subscription too
+        assert wait_for(lambda: watcher.pub_goal.get_subscription_count() >= 2, 60.0)
+        assert wait_for(lambda: watcher.position('waist') is not None, 60.0)
         key = watcher.send_goal(wx250s.joint_names, (0.5, 0.0, 0.0, 0.0, 0.0, 0.0),
                                 moving_time=1.0)
-        assert watcher.wait_goal(key, 30.0) == 'SUCCEEDED'
+        assert watcher.wait_goal(key, 60.0) == 'SUCCEEDED'
         page = open_page(browser, viewer.url)
         try:
             assert page.locator('[role=slider]').count() == 6
