@@ -24,8 +24,8 @@ Physics speed side by side, in one run: the 1 kHz step and the unthrottled ``sim
 
 The load average is stored with the figures, and whether the issue's goals are met: the held
 step costs no more than the former exact step, and the driver with the default scene runs at
-least 20x real time. Writes ``benchmarks/results/physics.json``. Usage (venv + install
-sourced): ``python benchmarks/bench_physics.py [--quick]``.
+least 20x real time. Writes ``benchmarks/results/physics.json`` (also when run by run_all.py).
+Usage (venv + install sourced): ``python benchmarks/bench_physics.py [--quick]``.
 """
 import argparse
 import importlib.util
@@ -131,8 +131,16 @@ def _time(step, steps: int) -> float:
 
 
 def run(quick: bool = False) -> dict:
-    """Return the figures and their table (run_all.py interface; quick: shorter windows)."""
+    """
+    Return the figures and their table, and write them to physics.json.
+
+    The run_all.py interface (quick: shorter rounds and windows).
+    """
     result = measure(1.0, 3, 3.0, 1) if quick else measure(2.0, 5, 5.0, 3)
+    result['quick'] = quick
+    os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
+    with open(RESULTS, 'w', encoding='utf-8') as f:
+        json.dump(result, f, indent=2)
     result['markdown'] = _table(result)
     return result
 
@@ -239,9 +247,6 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     result = run(args.quick)
     print(result['markdown'])
-    os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
-    with open(RESULTS, 'w', encoding='utf-8') as f:
-        json.dump({k: v for k, v in result.items() if k != 'markdown'}, f, indent=2)
     print(f'wrote {RESULTS}')
     return 0 if result['steps']['still_held_at_end'] == 'red_cube' else 1
 

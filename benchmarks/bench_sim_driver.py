@@ -9,7 +9,8 @@ sim_driver timing: publish-period jitter of joint_states at real time.
 The driver's speed (unthrottled, with and without the default scene) is measured by
 bench_physics.py, side by side with the step costs; :func:`bench_unthrottled` here is the
 measurement it uses. The machine's load average is recorded with the figures: on a shared
-2-core machine they vary with what else runs. Writes ``benchmarks/results/sim_driver.json``.
+2-core machine they vary with what else runs. Writes ``benchmarks/results/sim_driver.json``
+(also when run by run_all.py).
 Usage (venv + install sourced, e.g. ``source scripts/env.sh``):
 ``python benchmarks/bench_sim_driver.py [--quick]``.
 """
@@ -176,6 +177,9 @@ def run(quick: bool = False, log=print) -> dict:
     rec = figures['jitter_100hz'].get('received', {})
     stp = figures['jitter_100hz'].get('stamped', {})
     snt = figures['jitter_100hz'].get('sent', {})
+    os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
+    with open(RESULTS, 'w') as f:
+        json.dump(figures, f, indent=2)
     figures['markdown'] = '\n'.join([
         '| sim_driver | value |', '| --- | --- |',
         '| joint_states 100 Hz, received period jitter p50 / p99 [ms] | '
@@ -198,9 +202,6 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     figures = run(args.quick)
     print(figures['markdown'])
-    os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
-    with open(RESULTS, 'w') as f:
-        json.dump({k: v for k, v in figures.items() if k != 'markdown'}, f, indent=2)
     print(f'wrote {RESULTS}')
     return 0
 
