@@ -14,9 +14,10 @@ import math
 
 import numpy as np
 from px100_control.control.simulator import ArmSimulator
+from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
-from px100_control.sim.scene import load_scene, rpy_matrix
+from px100_control.sim.scene import load_scene
 import pytest
 from reference_step import ReferenceStepSimulator
 
@@ -39,7 +40,7 @@ def _script(sim):
 
     def ik(p):
         T = np.eye(4)
-        T[:3, :3] = rpy_matrix((0.0, math.pi / 2, math.atan2(p[1], p[0])))
+        T[:3, :3] = euler_sxyz_to_matrix(0.0, math.pi / 2, math.atan2(p[1], p[0]))
         T[:3, 3] = p
         result = solve_ik(sim.model, T, mode='pitch', q_seed=sim.positions())
         assert result.success, result.reason
