@@ -48,6 +48,8 @@ EXECUTABLES = {
     'viewer': ('viewer', [], ['viewer']),
     'viewer --bag': ('viewer', ['--bag'], ' on http://'),
 }
+#: how long the processes of a round, started at once, may take to be up [s]
+READY_TIMEOUT = 150.0
 #: executables that end by themselves (nothing to stop)
 ONE_SHOT = ('inspect', 'bag_reindex')
 
@@ -136,16 +138,19 @@ def _up(graph_nodes, ns, ready, log) -> bool:
 
 
 def _wait_ready(graph, expected, procs, timeout):
-    """Wait until every process of expected {namespace: ready} is up or died."""
+    """
+    Wait until every process of expected {namespace: ready} is up or died.
+
+    :return: {namespace: its nodes in the graph} of the processes not up in time
+    """
     end = time.monotonic() + timeout
-    while time.monotonic() < end:
+    while True:
         seen = {(ns, n) for n, ns in graph.get_node_names_and_namespaces()}
         missing = [key for key, ready in expected.items()
                    if procs[key][0].poll() is None and not _up(seen, key, ready, procs[key][1])]
-        if not missing:
-            return []
+        if not missing or time.monotonic() > end:
+            return {key: sorted(n for ns, n in seen if ns == key) for key in missing}
         time.sleep(0.05)
-    return missing
 
 
 def _stop(proc, way, rng):
@@ -180,16 +185,13 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
         ns = f"/sd_{tag}_{key.replace(' --', '_')}"
         procs[ns] = _start(key, ns, tmp, replay_bag, executor) + (key,)
         expected[ns] = ready
-    missing = _wait_ready(graph, expected, procs, timeout=150.0)  # 9 processes start at once
+    missing = _wait_ready(graph, expected, procs, READY_TIMEOUT)
     results = {}
     order = list(procs)
     rng.shuffle(order)
-    for ns in order:
-        proc = procs[ns][0]
-        if ns in missing:
-            continue
+    for ns in order:     # one not up yet is stopped too: its exit is reported with it
         time.sleep(rng.uniform(0.0, 0.4))
-        _stop(proc, way, rng)
+        _stop(procs[ns][0], way, rng)
     for ns in order:
         proc, log, name = procs[ns]
         try:
@@ -202,7 +204,8 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
         log.close()
         problems = []
         if ns in missing:
-            problems.append('never appeared in the graph')
+            problems.append(f'not up after {READY_TIMEOUT:g} s (its nodes in the graph: '
+                            f"{', '.join(missing[ns]) or 'none'})")
         if rc != 0:
             problems.append(f'exit {rc}')
         problems += [f'{bad!r} in output' for bad in BAD_OUTPUT if bad in out]
