@@ -10,7 +10,10 @@ Physics speed side by side, in one run: the 1 kHz step and the unthrottled ``sim
    - ``mujoco_empty``: ArmSimulator (PID + servo + MuJoCo) without a scene, same commands;
    - ``mujoco_held``: ArmSimulator with the default scene ``pick_place`` after picking the red
      cube: the waist swings +-45 deg with the cube squeezed between the pads (contacts with the
-     pads, the table under the other objects); the cube is checked to be still held at the end.
+     pads, the table under the other objects); the cube is checked to be still held at the end;
+   - ``mujoco_scene_idle``: ArmSimulator with ``pick_place``, the arm holding its sleep pose and
+     the objects resting on the table: the driver's work below (part 2) without ROS, so the
+     driver's figure can be read against it.
 
    Per variant: microseconds per step (CPU time of this process) and simulated seconds per CPU
    second.
@@ -149,13 +152,15 @@ def _steps(seconds: float, rounds: int) -> dict:
     """Return the step-cost figures (see the module docstring, part 1)."""
     from px100_control.control.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
+    from px100_control.sim.scene import load_scene
     model = load_robot('px100')
     oracle = _load_oracle()
     old = oracle.ArmSimulator(model, oracle.SimConfig(dynamics_divider=1))
     new = ArmSimulator(model)
     held_sim, held_step = _held(model)
+    idle = ArmSimulator(model, scene=load_scene('pick_place', model))
     variants = {'oracle_exact': _moving(old, model), 'mujoco_empty': _moving(new, model),
-                'mujoco_held': held_step}
+                'mujoco_held': held_step, 'mujoco_scene_idle': idle.step}
     steps = int(seconds * 1000)
     for step in variants.values():            # warm up
         _time(step, 200)
@@ -222,7 +227,7 @@ def _table(result: dict) -> str:
     """Return the figures as a Markdown table."""
     st, dr = result['steps'], result['sim_driver_unthrottled']
     rows = ['| physics speed, one run | value |', '| --- | --- |']
-    for name in ('oracle_exact', 'mujoco_empty', 'mujoco_held'):
+    for name in ('oracle_exact', 'mujoco_empty', 'mujoco_held', 'mujoco_scene_idle'):
         fig = st[name]
         rows.append(f'| 1 kHz step, {name}: µs (CPU) / simulated s per CPU s | '
                     f"{fig['us_per_step']} / {fig['sim_s_per_cpu_s']} |")
