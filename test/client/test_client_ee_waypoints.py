@@ -67,8 +67,12 @@ def test_waypoints_are_followed_on_straight_lines(bot, spin_node, rclpy_context)
     has no joint step above max_joint_step, from the joint commands before the move on.
     """
     from rclpy.node import Node
+    subscribers = bot.core.pub_goal.get_subscription_count()
     listener = _GoalListener(spin_node(Node('ee_waypoints_goals', context=rclpy_context)),
                              bot.core.topic('trajectory/goal'))
+    # the client waits for the subscribers its node already knows: let it know this one
+    assert wait_until(lambda: bot.core.pub_goal.get_subscription_count() > subscribers, 10.0), \
+        'the goal listener was not matched to the client'
     _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, pitch=0.3, moving_time=1.2)
     assert ok
     assert wait_until(lambda: listener.count() >= 1, 5.0), 'no goal heard on trajectory/goal'

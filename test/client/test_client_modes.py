@@ -152,6 +152,8 @@ def test_core_position_writes_with_profile_velocity_zero(arm_at_sleep, capfd):
     bot.core.robot_write_joint_command('waist', 1.6)
     assert wait_until(lambda: abs(bot.arm.get_joint_positions()[0] - 1.6) < 0.02, 4.0)
     assert 'exceeds the joint velocity limits' in capfd.readouterr().err
+    # at rest first (within 0.02 rad above, the last move may still settle), then nothing moves
+    assert wait_until(lambda: _still(bot, 0.2) < 0.002, 5.0)
     bot.core.robot_write_commands('arm', [0.0, -3.0, 1.0, 0.5])  # shoulder beyond -1.94
     assert _still(bot) < 0.01
     assert "for 'shoulder' is outside its limits" in capfd.readouterr().err
