@@ -344,7 +344,7 @@ def test_driver_silent_aborts_within_bound(fresh):
 @pytest.mark.parametrize('value, words', [(0.01, 'hold_after out of range Min: 0.05'),
                                           (-1.0, 'hold_after out of range Min: 0.05'),
                                           (float('nan'), 'hold_after out of range'),
-                                          (float('inf'), 'must be > 0')])
+                                          (float('inf'), 'hold_after must be >= 0.05 s')])
 def test_hold_after_too_short_or_invalid_is_refused(fresh, value, words):
     """A hold_after shorter than the gap between samples would pause every goal for good."""
     env = fresh
