@@ -234,7 +234,7 @@ def test_parameters_are_validated_live(spin_node, rclpy_context):
                                ('gains.shoulder.d', float('nan'), 'gains.shoulder.d out of range'),
                                ('gains.elbow.i', -3, 'gains.elbow.i out of range. Min: 0'),
                                ('gains.elbow.i_clamp', float('inf'), 'finite'),
-                               ('gains.elbow.u_clamp', float('-inf'), 'gains.elbow.u_clamp out of'),
+                               ('gains.elbow.u_clamp', float('-inf'), 'u_clamp out of'),
                                ('gains.wrist_angle.p', 'stiff', 'number'),
                                ('gains.waist.d', 50.0, 'unstable'),
                                ('object_width', 0.2, 'wider'),
