@@ -19,6 +19,8 @@ of it :func:`build_spec` adds, generated from the URDF and never edited per robo
   with 0.001 kg*m^2) become point masses, as the hand-written dynamics did;
 - contact physics measured on this machine (MuJoCo 4.0, PX100 URDF): elliptic friction cones,
   ``impratio`` 10, friction 1, contact and joint-limit ``solref`` time constant 0.002 s;
+- sleeping enabled: a body at rest (an object on the table, the arm with torque off) sleeps
+  until something touches it, pushes it or moves it, so idle objects cost nothing per step;
 - the scene (:mod:`.scene`): the table and fixtures as static bodies, objects as free bodies.
 
 Collision filter (contype/conaffinity bits): robot geoms 1/0 (never collide with each other),
@@ -159,6 +161,9 @@ def build_spec(robot, scene=None, timestep: float = 0.001):
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     opt.impratio = 10.0
     opt.integrator = mujoco.mjtIntegrator.mjINT_EULER      # implicit joint damping
+    # bodies at rest sleep (objects on the table cost nothing until touched); a tree wakes on
+    # contact with an awake one, on applied forces (the servos' torques) and on a written qpos
+    opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
     notes = _fix_placeholder_inertias(spec)
     gripper = robot.gripper
     finger_names = tuple(gripper.fingers) if gripper is not None else ()

@@ -223,6 +223,39 @@ def test_scene_api_and_resets(px100, scene):
     assert ArmSimulator(px100).objects() == [] and ArmSimulator(px100).held_object() is None
 
 
+def test_resting_objects_sleep_and_wake_when_touched_or_moved(px100, scene):
+    """Objects at rest sleep (no contacts computed); a written pose or the fingers wake them."""
+    sim = ArmSimulator(px100, scene=scene)
+    data = sim.mj_data
+    trees = {b.name: sim.mj_model.body_treeid[sim.mj_model.body(f'scene/{b.name}').id]
+             for b in scene.objects}
+
+    def asleep(name):
+        return data.tree_asleep[trees[name]] >= 0
+
+    sim.advance(1000)
+    assert all(asleep(name) for name in trees), list(data.tree_asleep)
+    assert data.ncon == 0                          # the table contacts of sleepers are skipped
+    pos = sim.object_poses()['green_cube'][0]
+    _, qadr, _ = next(a for a in sim._object_adr if a[0] == 'green_cube')
+    sim._qpos[qadr] += 0.03                        # a written pose wakes the object
+    sim.step()
+    assert not asleep('green_cube')
+    np.testing.assert_allclose(sim.object_poses()['green_cube'][0][0], pos[0] + 0.03,
+                               atol=1e-6)
+    sim.advance(1000)
+    assert asleep('green_cube')
+    sim.reset_scene()                              # back where the scene put it, awake
+    assert not asleep('green_cube')
+    np.testing.assert_allclose(sim.object_poses()['green_cube'][0],
+                               scene.body('green_cube').position, atol=1e-9)
+    sim.advance(1000)
+    assert asleep('red_cube')
+    p0 = _pick(sim, 'red_cube')                    # the pads wake it and lift it
+    assert not asleep('red_cube') and sim.held_object() == 'red_cube'
+    assert sim.object_poses()['red_cube'][0][2] > p0[2] + 0.04
+
+
 @pytest.mark.parametrize('name', available_scenes())
 def test_every_scene_rests_in_the_simulator(px100, name):
     """Each scene file runs: after 1 s with the arm at sleep every object rests where it was."""
