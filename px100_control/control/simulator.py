@@ -398,6 +398,7 @@ class ArmSimulator:
                               for s in self.servos]
         self.modes: Dict[str, str] = {}
         self._mode_list = ['position'] * self.n
+        self._all_position = True           # every arm joint in position mode (step's fast path)
         self._servo_consts = [(s.stall_torque, s.pwm_limit, s.back_emf_damping, s.max_torque)
                               for s in self.servos]
         # gripper
@@ -429,6 +430,7 @@ class ArmSimulator:
             self._g_reflected = None     # the finger slides' armature, damping, friction
         self._qpos, self._qvel = self.mj_data.qpos, self.mj_data.qvel
         self._qfrc = self.mj_data.qfrc_applied
+        self._q_view, self._qd_view = self._qpos[:n], self._qvel[:n]   # (contiguous arm)
         if gripper_spec is not None:
             d0 = self.linkage.finger_position(0.0)
             self._qpos[self._fq[0]], self._qpos[self._fq[1]] = d0, -d0
@@ -570,6 +572,7 @@ class ArmSimulator:
             return
         i = self.names.index(joint)
         self._mode_list[i] = mode
+        self._all_position = all(m == 'position' for m in self._mode_list)
         self.q_ref[i] = self.q[i]
         self.qd_ref[i] = 0.0
         self.ff_until[i] = -math.inf
@@ -821,13 +824,23 @@ class ArmSimulator:
         on = any(torque)
         qvel = self._qvel
         if self._contiguous:
-            q = self._qpos[:n].tolist()
-            qd = qvel[:n].tolist()
+            q = self._q_view.tolist()
+            qd = self._qd_view.tolist()
         else:
             q, qd = self.q, self.qd
         t = self.time
-        drive = [0.0] * n
-        if on:
+        # the usual case, every arm servo on in position mode: one loop without mode checks
+        every = on and self._all_position and all(torque)
+        if every:
+            drive = []
+            for pid, qr, qdr, fu, qi, qdi, c in zip(self.pids, self.q_ref, self.qd_ref,
+                                                    self.ff_until, q, qd, self._servo_consts):
+                v_ref = qdr if t < fu else 0.0
+                stall, lim = c[0], c[1]
+                duty = pid.step(qr - qi, dt, v_ref - qdi, v_ref) / stall
+                drive.append(stall * (lim if duty > lim else (-lim if duty < -lim else duty)))
+        elif on:
+            drive = [0.0] * n
             pids, q_ref, qd_ref, ff_until = self.pids, self.q_ref, self.qd_ref, self.ff_until
             consts = self._servo_consts
             for i, mode in enumerate(self._mode_list):
@@ -850,16 +863,29 @@ class ArmSimulator:
                 duty = u / stall
                 duty = lim if duty > lim else (-lim if duty < -lim else duty)
                 drive[i] = stall * duty
-        if self._contiguous:
-            self._qfrc[:n] = drive
         else:
-            self._qfrc[self._arm_dof] = drive
+            drive = [0.0] * n
+        qfrc = self._qfrc
+        for dof, x in zip(self._arm_dof, drive):    # (faster than a slice from a list)
+            qfrc[dof] = x
         if self.gripper_name:
             self._gripper_force(dt, self.gripper_torque)
         mujoco.mj_step(self.mj_model, self.mj_data)
-        if on:
+        if every:
+            # speeds held within the servos' Velocity_Limit; effort = drive - back-EMF torque
+            vel = self._qd_view.tolist() if self._contiguous else self.qd
+            effort = []
+            for dof, x, lim, d, b in zip(self._arm_dof, vel, self._vlim_list, drive,
+                                         self._back_emf):
+                if x > lim:
+                    x = qvel[dof] = lim
+                elif x < -lim:
+                    x = qvel[dof] = -lim
+                effort.append(d - b * x)
+            self.effort = effort
+        elif on:
             # speeds held within the servos' Velocity_Limit (while torque is on)
-            vel = qvel[:n].tolist() if self._contiguous else self.qd
+            vel = self._qd_view.tolist() if self._contiguous else self.qd
             vlim, dofs = self._vlim_list, self._arm_dof
             for i in range(n):
                 if torque[i]:
@@ -887,9 +913,9 @@ class ArmSimulator:
         b = self.gripper_damping
         if on:
             stall, lim, back = self._g_servo
-            mode = self.modes.get(self.gripper_name)
             if self.g_mode == 'effort':
-                u = self.g_command * stall if mode == 'duty' else self.g_command
+                duty_mode = self.modes.get(self.gripper_name) == 'duty'
+                u = self.g_command * stall if duty_mode else self.g_command
             elif self.g_mode == 'velocity':
                 u = self.gripper_velocity_pid.step(self.g_ref_vel - omega, dt, 0.0,
                                                    self.g_ref_vel)
