@@ -21,13 +21,17 @@ Physics speed side by side, in one run: the 1 kHz step and the unthrottled ``sim
    joint_states at 100 Hz and /clock at 250 Hz of simulated time, world/markers at 30 Hz; the
    arm holding its sleep pose, the objects resting on the table), with the default scene
    ``pick_place`` and with ``scene:=''``, in alternating windows: simulated seconds per wall
-   second (read from /clock by a subscriber in this process) and per CPU second of the driver
+   second (read from /clock by a subscriber in this process, best effort with depth 1 as every
+   use_sim_time node reads it) and per CPU second of the driver
    process (all its threads, from /proc), the median window of each. On a shared machine the
    wall figure follows what else runs; the CPU figure is the fairer one.
 
-The load average is stored with the figures, and whether the issue's goals are met: the held
-step costs no more than the former exact step, and the driver with the default scene runs at
-least 20x real time. Writes ``benchmarks/results/physics.json`` (also when run by run_all.py).
+The load average and the busy share of the machine's CPUs (/proc/stat) are stored with the
+figures, the driver's rate against bare stepping of its scene (paired in time), and whether the
+issue's goals are met: the held step costs no more than the former exact step, and the driver
+with the default scene runs at least 20x real time. CPU seconds are fairer than wall seconds on
+a shared machine but not load-free: with both cores busy a CPU second does less work. Writes
+``benchmarks/results/physics.json`` (also when run by run_all.py).
 Usage (venv + install sourced): ``python benchmarks/bench_physics.py [--quick]``.
 """
 import argparse
@@ -180,12 +184,27 @@ def _steps(seconds: float, rounds: int) -> dict:
 
 
 def _driver(window: float, alternations: int) -> dict:
-    """Return the unthrottled sim_driver figures, default scene and none (part 2)."""
+    """
+    Return the unthrottled sim_driver figures, default scene and none (part 2).
+
+    Before each window with the default scene, the same scene is stepped bare here (arm at
+    sleep, no ROS) for a second: ``vs_bare_step`` is the driver's rate over that one, paired in
+    time, the median of the pairs (the driver's overhead on the machine as it is then).
+    """
     from bench_sim_driver import bench_unthrottled
-    runs = {'pick_place': [], 'none': []}
+    from px100_control.control.simulator import ArmSimulator
+    from px100_control.models.registry import load_robot
+    from px100_control.sim.scene import load_scene
+    model = load_robot('px100')
+    bare = ArmSimulator(model, scene=load_scene('pick_place', model))
+    runs, pairs = {'pick_place': [], 'none': []}, []
     for _ in range(alternations):
         for name in runs:
+            if name == 'pick_place':
+                bare_rate = 1.0 / (_time(bare.step, 1000) * 1e-3)   # sim s per CPU s
             runs[name].append(bench_unthrottled(window, name if name != 'none' else ''))
+            if name == 'pick_place' and 'error' not in runs[name][-1]:
+                pairs.append(runs[name][-1]['sim_s_per_driver_cpu_s'] / bare_rate)
     out = {}
     for name, windows in runs.items():
         good = [w for w in windows if 'error' not in w]
@@ -194,8 +213,10 @@ def _driver(window: float, alternations: int) -> dict:
             continue
         out[name] = {key: statistics.median(w[key] for w in good)
                      for key in ('sim_s_per_wall_s', 'sim_s_per_driver_cpu_s',
-                                 'driver_cpu_share')}
+                                 'driver_cpu_share', 'machine_busy')}
         out[name]['windows'] = good
+    if pairs:
+        out['pick_place']['vs_bare_step'] = round(statistics.median(pairs), 2)
     return out
 
 
@@ -208,13 +229,15 @@ def measure(seconds: float, rounds: int, window: float, alternations: int) -> di
     :param window: wall seconds of one sim_driver window
     :param alternations: sim_driver windows per scene
     """
-    load0 = os.getloadavg()
+    from bench_sim_driver import busy_share, machine_busy
+    load0, busy0 = os.getloadavg(), machine_busy()
     out = {'steps': _steps(seconds, rounds),
            'sim_driver_unthrottled': _driver(window, alternations)}
     out['load_average'] = {'start': [round(v, 2) for v in load0],
                            'end': [round(v, 2) for v in os.getloadavg()]}
-    out['cpu_count'] = os.cpu_count()
+    out['machine_busy'] = busy_share(busy0, machine_busy())
     scene = out['sim_driver_unthrottled'].get('pick_place', {})
+    out['cpu_count'] = os.cpu_count()
     out['goals'] = {
         'held_step_at_most_former_exact_step': out['steps']['held_vs_oracle'] <= 1.0,
         'sim_driver_default_scene_20x_per_cpu_s':
@@ -236,11 +259,15 @@ def _table(result: dict) -> str:
     for name, label in (('pick_place', 'default scene pick_place'), ('none', 'no scene')):
         d = dr.get(name, {})
         rows.append(f'| sim_driver at real_time_factor 0, {label}: simulated s per driver '
-                    f"CPU s / per wall s (CPU share) | {d.get('sim_s_per_driver_cpu_s')} / "
-                    f"{d.get('sim_s_per_wall_s')} ({d.get('driver_cpu_share')}) |")
+                    f"CPU s / per wall s (driver's CPU share; machine busy) | "
+                    f"{d.get('sim_s_per_driver_cpu_s')} / {d.get('sim_s_per_wall_s')} "
+                    f"({d.get('driver_cpu_share')}; {d.get('machine_busy')}) |")
+    ratio = dr.get('pick_place', {}).get('vs_bare_step')
+    rows.append('| sim_driver (default scene) per CPU s / bare stepping of that scene per '
+                f'CPU s just before each window | {ratio} |')
     load = result['load_average']
-    rows.append(f"| load average 1/5/15 min at start, end ({result['cpu_count']} cores) | "
-                f"{load['start']}, {load['end']} |")
+    rows.append(f"| load average 1/5/15 min at start, end ({result['cpu_count']} cores); "
+                f"machine busy | {load['start']}, {load['end']}; {result['machine_busy']} |")
     rows.append(f"| goals met | {result['goals']} |")
     return '\n'.join(rows)
 

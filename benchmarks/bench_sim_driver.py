@@ -32,6 +32,19 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 
+def machine_busy() -> tuple:
+    """Return (busy, total) CPU jiffies of the whole machine so far (from /proc/stat)."""
+    with open('/proc/stat') as f:
+        fields = [int(x) for x in f.readline().split()[1:]]
+    idle = fields[3] + fields[4]                  # idle + iowait
+    return sum(fields) - idle, sum(fields)
+
+
+def busy_share(before: tuple, after: tuple) -> float:
+    """Return the share of the machine's CPU time that was busy between two machine_busy()."""
+    return round((after[0] - before[0]) / max(after[1] - before[1], 1), 2)
+
+
 def _cpu_seconds(pid: int) -> float:
     """Return user + system CPU seconds of a process (from /proc)."""
     with open(f'/proc/{pid}/stat') as f:
@@ -40,26 +53,21 @@ def _cpu_seconds(pid: int) -> float:
 
 
 class _Listener:
-    """Records /clock and joint_states arrivals in this process."""
+    """Records joint_states arrivals in this process."""
 
     def __init__(self):
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
-        from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import JointState
         self.ctx = rclpy.Context()
         rclpy.init(context=self.ctx)
         self.node = rclpy.create_node('bench_sim_driver', context=self.ctx)
-        self.clock, self.js = [], []
-        self.node.create_subscription(Clock, '/clock', self._on_clock, 1000)
+        self.js = []
         self.node.create_subscription(JointState, '/px100/joint_states', self._on_js, 1000)
         self.executor = SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.node)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
         self.thread.start()
-
-    def _on_clock(self, msg):
-        self.clock.append((time.monotonic(), msg.clock.sec + msg.clock.nanosec * 1e-9))
 
     def _on_js(self, msg):
         self.js.append((time.monotonic(),
@@ -84,35 +92,89 @@ def _window(store, seconds):
     return list(store[n0:])
 
 
+class _ClockProbe:
+    """
+    Reads the latest /clock when asked, and costs (almost) nothing in between.
+
+    The subscription is a use_sim_time node's (rclpy's TimeSource: best effort, depth 1), but
+    no executor runs it between readings: the middleware keeps the newest message and
+    :meth:`read` takes it. A subscriber whose Python callback ran for each of the driver's
+    thousands of /clock messages per second would load the machine's other core and slow the
+    driver it measures.
+    """
+
+    def __init__(self):
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = rclpy.create_node('bench_sim_driver_clock', context=self.ctx)
+        self.last = None
+        self.node.create_subscription(
+            Clock, '/clock', self._on_clock,
+            QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+        self.executor = SingleThreadedExecutor(context=self.ctx)
+        self.executor.add_node(self.node)
+
+    def _on_clock(self, msg):
+        self.last = (time.monotonic(), msg.clock.sec + msg.clock.nanosec * 1e-9)
+
+    def read(self, timeout: float):
+        """Return (monotonic wall time [s], simulated time [s]) of the newest /clock, or None."""
+        self.last = None
+        deadline = time.monotonic() + timeout
+        while self.last is None and time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.1)
+        return self.last
+
+    def close(self):
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self.ctx.try_shutdown()
+
+
 def bench_unthrottled(seconds: float, scene: str) -> dict:
     """
     Return simulated s per wall s and per driver CPU s of sim_driver at real_time_factor 0.
 
-    :param seconds: the measurement window [s of wall time], after the first 50 /clock
-        messages and one more second (start-up excluded)
+    Simulated time is read from /clock at the window's two ends (:class:`_ClockProbe`).
+
+    :param seconds: the measurement window [s of wall time], after /clock passed 1 s of
+        simulated time and one more second (start-up excluded)
     :param scene: the driver's ``scene`` parameter ('' = no objects)
     """
     from px100_control.tools.processes import NodeProcess
-    listener = _Listener()
+    probe = _ClockProbe()
     value = scene or "''"
     proc = NodeProcess('sim_driver', ['--ros-args', '-p', 'real_time_factor:=0.0',
                                       '-p', f'scene:={value}'])
     try:
-        if not listener.wait(listener.clock, 50, 60.0):
+        deadline = time.monotonic() + 60.0
+        first = probe.read(1.0)
+        while (first is None or first[1] < 1.0) and time.monotonic() < deadline:
+            first = probe.read(1.0)
+        if first is None:
             return {'error': 'no /clock from sim_driver', 'log': proc.output()[-2000:]}
         time.sleep(1.0)
-        cpu0 = _cpu_seconds(proc.pid)
-        samples = _window(listener.clock, seconds)
-        cpu1 = _cpu_seconds(proc.pid)
-        wall = samples[-1][0] - samples[0][0]
-        sim = samples[-1][1] - samples[0][1]
+        start = probe.read(5.0)
+        cpu0, busy0 = _cpu_seconds(proc.pid), machine_busy()
+        time.sleep(seconds)
+        end = probe.read(5.0)
+        cpu1, busy1 = _cpu_seconds(proc.pid), machine_busy()
+        if start is None or end is None:
+            return {'error': '/clock stopped', 'log': proc.output()[-2000:]}
+        wall = end[0] - start[0]
+        sim = end[1] - start[1]
         return {'sim_s_per_wall_s': round(sim / wall, 2),
                 'driver_cpu_share': round((cpu1 - cpu0) / seconds, 2),
                 'sim_s_per_driver_cpu_s': round(sim / max(cpu1 - cpu0, 1e-9), 2),
-                'window_s': seconds, 'load_average_1min': round(os.getloadavg()[0], 2)}
+                'window_s': seconds, 'load_average_1min': round(os.getloadavg()[0], 2),
+                'machine_busy': busy_share(busy0, busy1)}
     finally:
         proc.stop()
-        listener.close()
+        probe.close()
 
 
 def bench_jitter(seconds: float) -> dict:
