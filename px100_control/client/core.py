@@ -53,7 +53,8 @@ from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
 from px100_control.ros.conversions import matrix_to_pose, pose_to_matrix, stamp_id, stamp_key
-from px100_control.ros.peers import duplicates_message, has_unknown, live_peers
+from px100_control.ros.peers import (DISCOVERY_BOUND_S, duplicates_message, has_unknown,
+                                     live_peers)
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters
@@ -290,6 +291,7 @@ class InterbotixRobotXSCore:
                                                          'Profile_Acceleration': 0}
             self._modes[self.model.gripper.joint] = ('pwm', 'velocity')
 
+        self._created_monotonic = time.monotonic()
         if bringup is None:
             env = os.environ.get('PX100_BRINGUP', '').strip().lower()
             bringup = 'process' if env == 'process' else env_flag('PX100_BRINGUP')
@@ -538,8 +540,19 @@ class InterbotixRobotXSCore:
         return duplicates_message(peers, self.ns)
 
     def _check_duplicates(self) -> None:
-        """Refuse to run beside the nodes this call started twice; warn otherwise."""
+        """
+        Refuse to run beside the nodes this call started twice; warn otherwise.
+
+        After starting its own nodes the client watches the graph until its node has been
+        discovering for DISCOVERY_BOUND_S (a running driver missed by the first announcements
+        shows up by then).
+        """
         problem = self.duplicates()
+        if self._started_bringup:
+            born = getattr(self.robot_node, 'created_monotonic', self._created_monotonic)
+            while not problem and time.monotonic() - born < DISCOVERY_BOUND_S:
+                time.sleep(0.1)
+                problem = self.duplicates()
         if not problem:
             return
         if self._started_bringup:

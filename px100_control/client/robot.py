@@ -53,6 +53,8 @@ class InterbotixRobotNode(Node):
         self.node_name = node_name
         self.namespace = namespace
         super().__init__(node_name, *args, namespace=namespace, **kwargs)
+        #: time.monotonic() at creation: how long this node has been discovering the graph
+        self.created_monotonic = time.monotonic()
         self.get_logger().info('Initialized InterbotixRobotNode!')
 
     def wait_until_future_complete(self, future, timeout_sec: Optional[float] = None) -> None:
