@@ -4,7 +4,8 @@ Replay safety: a bag's goals and setpoints are not re-sent to a live arm.
 When a live driver or trajectory_server runs in a namespace the bag's ``trajectory/goal`` or
 ``commands/joint_setpoints`` are replayed into (:mod:`px100_control.ros.peers`), those topics
 are withheld, with a warning naming the live nodes. The graph is watched up to LIVE_CHECK_S
-before the replay (the wait ends as soon as a live node is seen) and looked at again, at most
+before the replay (the wait ends as soon as a live node is seen and named; a name still
+unknown is waited for up to NAME_WAIT_S more) and looked at again, at most
 every LIVE_RECHECK_S, while commands are replayed: discovery can outlast the first look on a
 loaded machine. Times are ``time.monotonic()`` seconds.
 """
@@ -13,12 +14,15 @@ import time
 from typing import Dict, List, Tuple
 
 from px100_control.bag.replay import withheld_warning
-from px100_control.ros.peers import has_unknown, live_peers
+from px100_control.ros.peers import DISCOVERY_BOUND_S, has_unknown, live_peers
 from rclpy.node import Node
 
-#: how long [s] the graph is watched for live nodes before commands are replayed (a loaded
-#: machine has taken more than 1 s to discover a bringup)
-LIVE_CHECK_S = 3.0
+#: how long [s] the graph is watched for live nodes before commands are replayed: until a
+#: participant missed by the first DDS announcements has been announced again
+LIVE_CHECK_S = DISCOVERY_BOUND_S
+#: how much longer [s] a live node seen but not yet named is waited for (its name arrives
+#: after its endpoints; CI once saw only '(a node not identified yet)' at 3 s)
+NAME_WAIT_S = 1.0
 #: while commands are replayed, the graph is looked at again at most this often [s]
 LIVE_RECHECK_S = 0.25
 
@@ -59,6 +63,10 @@ class CommandGuard:
         live, unknown = self._live_nodes()
         while (not live or unknown) and time.monotonic() < deadline and \
                 not self._stop.is_set():
+            time.sleep(0.05)
+            live, unknown = self._live_nodes()
+        deadline = time.monotonic() + NAME_WAIT_S
+        while live and unknown and time.monotonic() < deadline and not self._stop.is_set():
             time.sleep(0.05)
             live, unknown = self._live_nodes()
         self._withhold(live)
