@@ -31,7 +31,7 @@ import numpy as np
 
 from px100_control.viewer.guard import Guard
 from px100_control.viewer.robot import UrdfRobot
-from px100_control.viewer.state import ViewerState
+from px100_control.viewer.state import markdown_literal, ViewerState
 
 #: buttons of the controls panel: (action name, label)
 BUTTONS = (('home', 'Home'), ('sleep', 'Sleep'), ('gripper_open', 'Open gripper'),
@@ -405,7 +405,8 @@ class ViewerScene:
                 '/ik_target', radius=0.007, color=(200, 0, 200), position=xyz)
 
     def _draw_status(self, state: ViewerState, now: float) -> None:
-        self.status.content = '  \n'.join(state.status_lines())
+        lines = (markdown_literal(line) for line in state.status_lines())
+        self.status.content = '  \n'.join(lines)    # '  \n': a Markdown line break
 
     def close(self) -> None:
         """Stop the web server."""

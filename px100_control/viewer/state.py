@@ -9,6 +9,7 @@ as an argument [s]. Positions are in the robot's base frame [m]; quaternions are
 from collections import deque
 from dataclasses import dataclass
 import math
+import re
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
 #: visualization_msgs/Marker type -> shape name (CUBE, SPHERE, CYLINDER)
@@ -19,6 +20,8 @@ MARKER_ADD, MARKER_DELETE, MARKER_DELETEALL = 0, 2, 3
 GOAL_STATUS_NAMES = {0: 'UNKNOWN', 1: 'ACCEPTED', 2: 'EXECUTING', 3: 'CANCELING',
                      4: 'SUCCEEDED', 5: 'CANCELED', 6: 'ABORTED'}
 TERMINAL_STATUSES = ('SUCCEEDED', 'CANCELED', 'ABORTED')
+#: ASCII punctuation a backslash escapes in CommonMark, but , : ; / ? @ (never markup)
+_MARKDOWN_SPECIAL = re.compile(r'[\\`*_{}\[\]<>()#+\-.!|~&"\'=^$%]')
 
 
 @dataclass(frozen=True)
@@ -183,6 +186,17 @@ def interpolate_joint_path(start: Dict[str, float], names: Sequence[str],
                         for n, v in current.items()})
         current = target
     return out
+
+
+def markdown_literal(text: str) -> str:
+    """
+    Return text escaped for Markdown (CommonMark + GFM) so it renders as written.
+
+    Names and error texts reach the status panel verbatim; unescaped, ``<lambda>`` would be
+    raw HTML that swallows the lines after it and ``wrist_angle ... shoulder_x`` italics.
+    """
+    one_line = ' '.join(str(text).split())     # a newline would start a block (list, code)
+    return _MARKDOWN_SPECIAL.sub(r'\\\g<0>', one_line)
 
 
 def stamp_seconds(stamp) -> float:

@@ -8,8 +8,8 @@ import sys
 from types import SimpleNamespace as NS
 
 from px100_control.errors import BagError
-from px100_control.viewer.state import apply_markers, interpolate_joint_path, RateLimit, \
-    Throttle, Trail, ViewerState
+from px100_control.viewer.state import apply_markers, interpolate_joint_path, \
+    markdown_literal, RateLimit, Throttle, Trail, ViewerState
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -100,6 +100,30 @@ def test_state_versions_status_and_terminal_goal():
     assert lines[0] == 'state t = 12.500000 s'
     assert 'last error: ik: unreachable by 0.12 m' in lines
     assert 'trajectory: goal 3.000: SUCCEEDED' in lines
+
+
+#: texts that are Markdown or HTML when not escaped (names and error texts reach the panel as is)
+STATUS_TEXTS = ('ik: <lambda> failed', 'wrist_angle and shoulder_lift', '**bold** `code` [a](b)',
+                '# heading', '1. item', '- item\n    code block', 'a & b &lt; c', r'back\slash',
+                'state t = 1.5 s', '~~x~~ | y |', '<b>', 'error: {"x": [1, 2]} (!)')
+
+
+def _rendered_text(markdown: str) -> str:
+    """Render markdown as GFM-like CommonMark does; return its text, tags stripped."""
+    import html
+    import re
+    markdown_it = pytest.importorskip('markdown_it')
+    md = markdown_it.MarkdownIt('commonmark').enable(['table', 'strikethrough'])
+    out = md.render(markdown)
+    return html.unescape(re.sub(r'<[^>]*>', '', out)).strip()
+
+
+def test_status_text_reaches_the_page_as_written():
+    """markdown_literal: the rendered text is the text, on one line, for markup-like input."""
+    for text in STATUS_TEXTS:
+        assert _rendered_text(markdown_literal(text)) == ' '.join(text.split()), text
+    # the check can fail: unescaped, most of these do not survive
+    assert sum(_rendered_text(t) != ' '.join(t.split()) for t in STATUS_TEXTS) >= 8
 
 
 def test_bag_timeline_gives_the_state_at_a_time(tmp_path):
