@@ -134,7 +134,8 @@ async def _websocket_samples(port: int, seconds: float) -> list:
     import viser
     import websockets
     import zstandard
-    pattern, out = re.compile(rb'state t = ([0-9.]+) s'), []
+    # the panel's Markdown source, escaped by markdown_literal: 'state t \= 12\.5 s'
+    pattern, out = re.compile(rb'state t \\?= ([0-9.\\]+) s'), []
     inflate = zstandard.ZstdDecompressor()
     async with websockets.connect(f'ws://127.0.0.1:{port}', max_size=None,
                                   subprotocols=[f'viser-v{viser.__version__}']) as ws:
@@ -154,7 +155,8 @@ async def _websocket_samples(port: int, seconds: float) -> list:
             # [8 bytes] inflated size, [8 bytes] compressed size, zstd msgpack, buffers
             size, packed = int.from_bytes(raw[:8], 'little'), int.from_bytes(raw[8:16], 'little')
             inner = inflate.decompress(raw[16:16 + packed], max_output_size=size)
-            out += [(arrival, float(m.group(1))) for m in pattern.finditer(inner)]
+            out += [(arrival, float(m.group(1).replace(b'\\', b'')))
+                    for m in pattern.finditer(inner)]
     return [s for s in out if s[1] > 1e9]          # live stamps, not the page's initial 0
 
 
