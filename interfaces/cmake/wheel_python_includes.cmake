@@ -1,0 +1,37 @@
+# Included into every interface package's project() (colcon passes it as CMAKE_PROJECT_INCLUDE,
+# see scripts/setup.sh). The PyPI ROS 2 wheels export *__rosidl_generator_pyExport.cmake
+# targets whose include directories name the wheel builder's Python and NumPy headers, which do
+# not exist here, and CMake refuses imported targets with missing include directories. At the
+# end of the directory's configure this swaps those entries for this interpreter's headers.
+# It changes nothing where every listed directory exists (an apt ROS install).
+function(_wheel_python_includes_fix)
+  get_property(_targets DIRECTORY "${CMAKE_SOURCE_DIR}" PROPERTY IMPORTED_TARGETS)
+  set(_replacement ${Python3_INCLUDE_DIRS} ${Python3_NumPy_INCLUDE_DIRS})
+  foreach(_target IN LISTS _targets)
+    get_target_property(_dirs ${_target} INTERFACE_INCLUDE_DIRECTORIES)
+    if(NOT _dirs)
+      continue()
+    endif()
+    set(_kept "")
+    set(_missing FALSE)
+    foreach(_dir IN LISTS _dirs)
+      if(NOT _dir MATCHES "^\\$<" AND NOT EXISTS "${_dir}")
+        set(_missing TRUE)
+      else()
+        list(APPEND _kept "${_dir}")
+      endif()
+    endforeach()
+    if(_missing)
+      if(NOT _replacement)
+        find_package(Python3 REQUIRED COMPONENTS Interpreter Development NumPy)
+        set(_replacement ${Python3_INCLUDE_DIRS} ${Python3_NumPy_INCLUDE_DIRS})
+      endif()
+      list(APPEND _kept ${_replacement})
+      list(REMOVE_DUPLICATES _kept)
+      set_target_properties(${_target} PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${_kept}")
+    endif()
+  endforeach()
+endfunction()
+if(NOT CMAKE_VERSION VERSION_LESS 3.19)
+  cmake_language(DEFER DIRECTORY "${CMAKE_SOURCE_DIR}" CALL _wheel_python_includes_fix)
+endif()
