@@ -1,11 +1,12 @@
 """
 The architecture, checked on the source with ast (so it also holds on a machine without ROS).
 
-- The pure layers (wire, kinematics, models, control, sim, bag, viewer) import no rclpy, *_msgs
-  package or builtin_interfaces.
+- The pure layers (wire, kinematics, models, control, sim, bag, viewer, perception) import no
+  rclpy, *_msgs package or builtin_interfaces.
 - Layer order, lowest first: errors/paths/parameters (the parameter schemas: data the engines
   check against and the nodes declare), wire, kinematics, models, then control / sim / bag /
-  viewer / tools, then ros, then client. A module imports only from its own layer or lower ones.
+  viewer / tools / perception, then ros, then client. A module imports only from its own layer
+  or lower ones.
 - No import cycles between modules.
 - Imports sit at the top of a module (project, standard library, third-party and ROS alike);
   one inside a function must say why on its line (``# optional: why``): an optional dependency
@@ -22,12 +23,13 @@ import pytest
 
 ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                     'px100_control')
-PURE = ('wire', 'models', 'kinematics', 'control', 'sim', 'bag', 'viewer')
+PURE = ('wire', 'models', 'kinematics', 'control', 'sim', 'bag', 'viewer', 'perception')
 #: top-level modules that are pure too
 PURE_MODULES = ('errors.py', 'paths.py', 'parameters.py')
 #: layer rank of each top-level package of px100_control (a module may import rank <= its own)
 LAYERS = {'errors': 0, 'paths': 0, 'parameters': 0, '__init__': 0, 'wire': 1, 'kinematics': 2,
-          'models': 3, 'control': 4, 'sim': 4, 'bag': 4, 'viewer': 4, 'tools': 4, 'ros': 5,
+          'models': 3, 'control': 4, 'sim': 4, 'bag': 4, 'viewer': 4, 'tools': 4,
+          'perception': 4, 'ros': 5,
           'client': 6}
 
 

@@ -1,0 +1,174 @@
+"""
+A simulated RGB-D camera: pose, pinhole intrinsics, depth noise and back-projection.
+
+The defaults are a RealSense D415 at 640 x 480 (colour and depth aligned, fx = fy = 615.7 px:
+a 42.6 deg vertical field of view; stereo baseline 55 mm; 0.08 px subpixel disparity noise),
+0.6 m above the table, looking down at the objects in front of the arm. Frames: ``position``
+and ``look_at`` are in the robot's base frame [m]; the optical frame is REP-103's (z forward
+along the optical axis, x right, y down). Depth is the z distance along the optical axis [m],
+0 where there is no return, as a RealSense driver publishes it.
+"""
+from dataclasses import dataclass
+import math
+from typing import Optional, Tuple
+
+import numpy as np
+from px100_control.errors import InvalidInputError
+
+#: D415 stereo baseline [m] and subpixel disparity RMS [px] (Intel's depth-accuracy model)
+D415_BASELINE = 0.055
+D415_SUBPIXEL = 0.08
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """Pinhole intrinsics [px] of a ``width`` x ``height`` image (no distortion)."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    @property
+    def k(self) -> Tuple[float, ...]:
+        """Return the row-major 3x3 camera matrix K of sensor_msgs/CameraInfo."""
+        return (self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0)
+
+    @property
+    def p(self) -> Tuple[float, ...]:
+        """Return the row-major 3x4 projection matrix P of sensor_msgs/CameraInfo."""
+        return (self.fx, 0.0, self.cx, 0.0, 0.0, self.fy, self.cy, 0.0, 0.0, 0.0, 1.0, 0.0)
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """
+    One RGB-D camera of a scene.
+
+    ``fovy`` is the vertical field of view [rad] (square pixels); ``rate`` the frame rate [Hz];
+    ``depth_range`` the [min, max] z [m] that gives a return; ``subpixel`` the disparity noise
+    RMS [px] of the stereo depth model (0: noise-free); ``baseline`` the stereo baseline [m].
+    """
+
+    name: str = 'camera'
+    position: Tuple[float, float, float] = (0.18, 0.0, 0.60)
+    look_at: Tuple[float, float, float] = (0.15, 0.0, 0.0)
+    width: int = 640
+    height: int = 480
+    fovy: float = 2.0 * math.atan(240.0 / 615.7)
+    rate: float = 5.0
+    depth_range: Tuple[float, float] = (0.16, 3.0)
+    subpixel: float = D415_SUBPIXEL
+    baseline: float = D415_BASELINE
+
+    def intrinsics(self) -> Intrinsics:
+        """Return the pinhole intrinsics of the image, principal point at its centre."""
+        f = 0.5 * self.height / math.tan(0.5 * self.fovy)
+        return Intrinsics(self.width, self.height, f, f, 0.5 * (self.width - 1),
+                          0.5 * (self.height - 1))
+
+    def optical_rotation(self) -> np.ndarray:
+        """Return R (3x3): columns are the optical x, y, z axes in the base frame."""
+        z = np.subtract(self.look_at, self.position).astype(float)
+        z /= np.linalg.norm(z)
+        up = np.array([0.0, 0.0, 1.0])
+        if abs(float(z @ up)) > 0.999:    # looking straight down or up: image up = base +x
+            up = np.array([1.0, 0.0, 0.0]) * (1.0 if z[2] < 0 else -1.0)
+        x = np.cross(z, up)
+        x /= np.linalg.norm(x)
+        return np.column_stack([x, np.cross(z, x), z])
+
+    def optical_pose(self) -> np.ndarray:
+        """Return the 4x4 pose of the optical frame in the base frame."""
+        T = np.eye(4)
+        T[:3, :3] = self.optical_rotation()
+        T[:3, 3] = self.position
+        return T
+
+    def depth_sigma(self, depth: np.ndarray) -> np.ndarray:
+        """Return the depth noise RMS [m] at ``depth`` [m]: z^2 * subpixel / (f * baseline)."""
+        f = self.intrinsics().fy
+        return np.square(depth) * (self.subpixel / (f * self.baseline))
+
+
+def camera_error(spec: CameraSpec) -> Optional[str]:
+    """Return why ``spec`` is not a usable camera (naming every wrong field), or None."""
+    wrong = []
+    for field, values in (('position', spec.position), ('look_at', spec.look_at)):
+        if len(values) != 3 or not all(math.isfinite(float(v)) for v in values):
+            wrong.append(f'{field} needs 3 finite numbers [m], got {list(values)}')
+    if not wrong and np.linalg.norm(np.subtract(spec.look_at, spec.position)) < 1e-6:
+        wrong.append('look_at equals position: the camera looks nowhere')
+    if not (16 <= spec.width <= 4096 and 16 <= spec.height <= 4096):
+        wrong.append(f'width and height must be 16..4096 px, got {spec.width} x {spec.height}')
+    if not (math.isfinite(spec.fovy) and math.radians(5) <= spec.fovy <= math.radians(150)):
+        wrong.append(f'fovy must be 5..150 deg, got {math.degrees(spec.fovy):.4g} deg')
+    if not (math.isfinite(spec.rate) and 0.0 < spec.rate <= 60.0):
+        wrong.append(f'rate must be in (0, 60] Hz, got {spec.rate}')
+    lo, hi = (tuple(spec.depth_range) + (math.nan, math.nan))[:2]
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi):
+        wrong.append(f'depth_range must be 0 < min < max [m], got {list(spec.depth_range)}')
+    if not (math.isfinite(spec.subpixel) and spec.subpixel >= 0.0):
+        wrong.append(f'subpixel must be >= 0 px, got {spec.subpixel}')
+    if not (math.isfinite(spec.baseline) and spec.baseline > 0.0):
+        wrong.append(f'baseline must be > 0 m, got {spec.baseline}')
+    return '; '.join(wrong) or None
+
+
+def checked(spec: CameraSpec) -> CameraSpec:
+    """Return ``spec``, or raise InvalidInputError naming every wrong field."""
+    error = camera_error(spec)
+    if error:
+        raise InvalidInputError(f"camera '{spec.name}': {error}")
+    return spec
+
+
+def noisy_depth(spec: CameraSpec, depth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """
+    Return ``depth`` [m] as the sensor reports it: stereo noise, no return outside the range.
+
+    The noise is Gaussian with the stereo model's RMS (:meth:`CameraSpec.depth_sigma`); pixels
+    whose true depth is outside ``depth_range`` (or not finite) become 0 (no return).
+    """
+    depth = np.asarray(depth, dtype=np.float32)
+    lo, hi = spec.depth_range
+    with np.errstate(invalid='ignore'):
+        valid = (depth >= lo) & (depth <= hi)
+    out = np.zeros(depth.shape, dtype=np.float32)
+    z = depth[valid]
+    if spec.subpixel > 0.0:
+        z = z + rng.standard_normal(z.shape, dtype=np.float32) * spec.depth_sigma(z)
+    out[valid] = z
+    return out
+
+
+def back_project(intr: Intrinsics, depth: np.ndarray,
+                 color: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return the cloud of a depth image: points (N, 3) [m] in the optical frame, colours (N, 3).
+
+    Pixels with depth 0 (no return) are skipped. ``color`` (H, W, 3) uint8 aligned with the
+    depth image gives each point its colour (zeros without it).
+    """
+    h, w = depth.shape
+    if (w, h) != (intr.width, intr.height):
+        raise InvalidInputError(f'depth image is {w} x {h}, the intrinsics are for '
+                                f'{intr.width} x {intr.height}')
+    v, u = np.nonzero(depth > 0.0)
+    z = depth[v, u].astype(np.float64)
+    points = np.column_stack([(u - intr.cx) * z / intr.fx, (v - intr.cy) * z / intr.fy, z])
+    colors = (np.asarray(color)[v, u] if color is not None
+              else np.zeros((len(z), 3), dtype=np.uint8))
+    return points, colors.astype(np.uint8)
+
+
+def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Return ``points`` (N, 3) mapped by the 4x4 transform ``T``."""
+    points = np.asarray(points, dtype=np.float64)
+    out = np.empty_like(points)
+    for i in range(3):        # three axpy passes: 3-column matmuls are slow through BLAS here
+        out[:, i] = (points[:, 0] * T[i, 0] + points[:, 1] * T[i, 1] + points[:, 2] * T[i, 2]
+                     + T[i, 3])
+    return out
