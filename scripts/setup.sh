@@ -51,7 +51,9 @@ for pkg_dir in "$ROOT"/interfaces/*/; do
   fi
 done
 IFACE_STAMP="$ROOT/install/.px100_interfaces.sha"
-IFACE_WANT=$( { echo "$WANT $(for d in "${IFACE_PATHS[@]}"; do basename "$d"; done) $("$VENV/bin/python" -VV)";
+# (what the build depends on: the ROS/colcon pins, the packages built, the interpreter, the sources)
+IFACE_WANT=$( { grep -iE '^(ros|rosidl|ament|colcon|rcl|rmw)[-_]' "$ROOT/requirements/constraints.txt";
+                echo "$(for d in "${IFACE_PATHS[@]}"; do basename "$d"; done) $("$VENV/bin/python" -VV)";
                 find "$ROOT/interfaces" -type f | LC_ALL=C sort | xargs cat; } | sha256sum | cut -d' ' -f1)
 CMAKE_ARGS=(-DBUILD_TESTING=OFF "-DCMAKE_PROJECT_INCLUDE=$ROOT/interfaces/cmake/wheel_python_includes.cmake")
 if [ ${#IFACE_PATHS[@]} -gt 0 ] && [ "$(cat "$IFACE_STAMP" 2>/dev/null)" != "$IFACE_WANT" ]; then
