@@ -46,7 +46,7 @@ def test_expected_hashes_agree_with_an_independent_store():
 def test_every_interface_built_here_is_covered():
     """Each upstream package in interfaces/ has each of its types in the expected file."""
     root = os.path.dirname(os.path.dirname(HERE))
-    for pkg in ('interbotix_xs_msgs', 'control_msgs', 'tf2_msgs'):
+    for pkg in ('interbotix_xs_msgs', 'interbotix_perception_msgs', 'control_msgs', 'tf2_msgs'):
         for kind in ('msg', 'srv', 'action'):
             folder = os.path.join(root, 'interfaces', pkg, kind)
             for fname in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
