@@ -83,7 +83,7 @@ def _moving(sim, model):
 
 def _held(model):
     """Return (sim, step function) with the red cube picked and the waist swinging."""
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.kinematics.rotations import euler_sxyz_to_matrix
     from px100_control.kinematics.solve import solve_ik
     from px100_control.sim.scene import load_scene
@@ -154,7 +154,7 @@ def run(quick: bool = False) -> dict:
 
 def _steps(seconds: float, rounds: int) -> dict:
     """Return the step-cost figures (see the module docstring, part 1)."""
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
     from px100_control.sim.scene import load_scene
     model = load_robot('px100')
@@ -192,7 +192,7 @@ def _driver(window: float, alternations: int) -> dict:
     time, the median of the pairs (the driver's overhead on the machine as it is then).
     """
     from bench_sim_driver import bench_unthrottled
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
     from px100_control.sim.scene import load_scene
     model = load_robot('px100')

@@ -72,7 +72,7 @@ def test_checks_match_the_values_the_nodes_know():
     """Choices in the schema are the engines' own lists (no drift)."""
     from px100_control.control.trajectory import PROFILES
     from px100_control.control.pid import GAIN_FIELDS
-    from px100_control.control.simulator import MODES
+    from px100_control.sim.simulator import MODES
     from px100_control.kinematics.solve import METHODS
     assert tuple(ps.IK_SERVICE['method'].choices) == tuple(METHODS)
     assert tuple(ps.TRAJECTORY_SERVER['profile'].choices) == tuple(PROFILES)

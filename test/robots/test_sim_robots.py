@@ -14,11 +14,11 @@ import time
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
-from px100_control.control.simulator import ArmSimulator, SimConfig
 from px100_control.kinematics.poe import fk_space
 from px100_control.models.registry import available_robots, load_robot
 from px100_control.models.urdf_chain import chain_to_poe, load_urdf
 from px100_control.ros.conversions import pose_to_matrix
+from px100_control.sim.simulator import ArmSimulator, SimConfig
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter

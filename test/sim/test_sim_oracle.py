@@ -10,8 +10,8 @@ closed-loop moves of the old simulator (oracle_simulator.py) and the MuJoCo one 
 import numpy as np
 from oracle_dynamics import dynamics_for_model
 from oracle_simulator import ArmSimulator as OracleSimulator, SimConfig as OracleConfig
-from px100_control.control.simulator import ArmSimulator
 from px100_control.models.registry import available_robots, load_robot
+from px100_control.sim.simulator import ArmSimulator
 import pytest
 
 

@@ -13,11 +13,11 @@ must be equal bit for bit.
 import math
 
 import numpy as np
-from px100_control.control.simulator import ArmSimulator
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
 from px100_control.sim.scene import load_scene
+from px100_control.sim.simulator import ArmSimulator
 import pytest
 from reference_step import ReferenceStepSimulator
 
