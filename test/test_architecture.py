@@ -18,6 +18,7 @@ The architecture, checked on the source with ast (so it also holds on a machine 
   most 20 (the logic lives in the pure layers and in ros/ helper modules).
 """
 import ast
+import functools
 import os
 import re
 
@@ -52,9 +53,18 @@ def _pure_files():
                     yield os.path.join(dirpath, f)
 
 
-def _imports(path):
+@functools.lru_cache(maxsize=None)
+def _parsed(path: str):
+    """Return (text, lines, tree, {child: parent}) of a source file (parsed once per run)."""
     with open(path, encoding='utf-8') as f:
-        tree = ast.parse(f.read(), filename=path)
+        text = f.read()
+    tree = ast.parse(text, filename=path)
+    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    return text, text.split('\n'), tree, parents
+
+
+def _imports(path):
+    tree = _parsed(path)[2]
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
@@ -102,11 +112,7 @@ def _module_name(path: str) -> str:
 
 def _project_imports(path: str):
     """Yield (line, imported module, inside a function, marked optional) of project imports."""
-    with open(path, encoding='utf-8') as f:
-        text = f.read()
-    lines = text.split('\n')
-    tree = ast.parse(text, filename=path)
-    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    _, lines, tree, parents = _parsed(path)
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -222,25 +228,31 @@ def _all_files():
                 yield os.path.join(dirpath, f)
 
 
+@functools.lru_cache(maxsize=None)
+def _package_tree_graph():
+    """Return _graph of every module of the package (built once per run)."""
+    return _graph(list(_all_files()))
+
+
 def test_every_package_has_a_layer():
     assert {_layer(_module_name(f)) for f in _all_files()} <= set(LAYERS)
 
 
 def test_layer_order():
     """No module imports a package of its rank or higher (models from kinematics, sim from ros)."""
-    bad = _upward(_graph(list(_all_files())))
+    bad = _upward(_package_tree_graph())
     assert not bad, 'imports from the same or a higher layer:\n' + '\n'.join(bad)
 
 
 def test_no_package_cycles():
     """No two packages import each other, even through modules that form no module cycle."""
-    cycles = _package_cycles(_graph(list(_all_files())))
+    cycles = _package_cycles(_package_tree_graph())
     assert not cycles, '\n'.join(cycles)
 
 
 def test_no_import_cycles():
     """No cycle among the modules (function-level imports count)."""
-    cycles = _cycles(_graph(list(_all_files())))
+    cycles = _cycles(_package_tree_graph())
     assert not cycles, cycles
 
 
@@ -253,11 +265,7 @@ _OPTIONAL = re.compile(r'#\s*optional:\s*\S')
 
 def _function_imports(path: str):
     """Yield (line, function, imported module, marked '# optional: why') of function imports."""
-    with open(path, encoding='utf-8') as f:
-        text = f.read()
-    lines = text.split('\n')
-    tree = ast.parse(text, filename=path)
-    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    _, lines, tree, parents = _parsed(path)
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -302,10 +310,8 @@ def test_private_apis_in_one_module():
     for f in _all_files():
         if f.endswith(os.path.join('wire', 'private_api.py')):
             continue
-        with open(f, encoding='utf-8') as src:
-            text = src.read()
         bad += [os.path.relpath(f, ROOT) for word in ('take_message', 'mcap_ros2._dynamic')
-                if word in text]
+                if word in _parsed(f)[0]]
     assert not bad, bad
 
 
@@ -422,9 +428,7 @@ def _callback_names(tree) -> set:
 
 def _too_long(path: str) -> list:
     """Return what makes a node module too long: its line count, callbacks over the limit."""
-    with open(path, encoding='utf-8') as f:
-        text = f.read()
-    tree = ast.parse(text, filename=path)
+    text, _, tree, _ = _parsed(path)
     bad = []
     if len(text.splitlines()) > MAX_NODE_LINES:
         bad.append(f'{len(text.splitlines())} lines')
