@@ -6,6 +6,8 @@ import os
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+#: runs scripts/pid_experiment.py (twelve simulated step responses): not in the quick tier
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope='module')

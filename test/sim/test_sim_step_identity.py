@@ -90,7 +90,7 @@ def _script(sim):
     return held, np.array(trace)
 
 
-@pytest.mark.parametrize('contiguous', [True, False])
+@pytest.mark.parametrize('contiguous', [True, pytest.param(False, marks=pytest.mark.slow)])
 def test_step_is_the_reference_step_bit_for_bit(px100, contiguous):
     """Same commands, same scene: every state of every step identical to the reference."""
     scene = load_scene('pick_place', px100)
