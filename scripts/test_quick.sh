@@ -11,8 +11,14 @@ WANT=$(cat "$ROOT/requirements/runtime.txt" "$ROOT/requirements/constraints.txt"
 if [ ! -x "$VENV/bin/python" ] || [ "$(cat "$VENV/.px100_requirements.sha" 2>/dev/null)" != "$WANT" ]; then
   bash "$ROOT/scripts/setup.sh"
 fi
-# shellcheck disable=SC1091
-source "$VENV/bin/activate"
+# the install too when there is one (interface packages), as the full suite sees them
+if [ -f "$ROOT/install/setup.bash" ]; then
+  # shellcheck disable=SC1091
+  PX100_VENV=$VENV source "$ROOT/scripts/env.sh"
+else
+  # shellcheck disable=SC1091
+  source "$VENV/bin/activate"
+fi
 export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % 90) + 10 ))}
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 unset ROS_LOCALHOST_ONLY
