@@ -22,10 +22,13 @@ import os
 import sys
 import time
 
+import bound
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'client.json')
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (180.0, 600.0)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
@@ -123,8 +126,11 @@ def main(argv=None) -> int:
     parser.add_argument('--connect', action='store_true', help='use nodes already running')
     parser.add_argument('--bringup', choices=('thread', 'process'), default='thread',
                         help='nodes as threads of this process (default) or child processes')
+    bound.add_argument(parser, *BOUND_S)
     args = parser.parse_args(argv)
-    figures = run(quick=args.quick, connect=args.connect, bringup=args.bringup)
+    with bound.bounded('bench_client', bound.seconds(args, args.quick)):
+        figures = run(quick=args.quick, connect=args.connect, bringup=args.bringup,
+                      log=bound.log)
     figures['quick'] = args.quick
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
     with open(RESULTS, 'w', encoding='utf-8') as f:

@@ -20,8 +20,11 @@ Benchmark of the ik_service node over DDS, and of the trajectory_server setpoint
 
 ``run(quick)`` returns the numbers as a dict; ``main()`` prints them and writes
 ``benchmarks/results/ik_service.json`` (``--quick``: fewer requests). Set ROS_DOMAIN_ID to a
-private domain (default 23). Usage: ``python benchmarks/bench_ik_service.py [--quick]``.
+private domain (default 23). Usage: ``python benchmarks/bench_ik_service.py [--quick]
+[--bound SECONDS]`` (default bound BOUND_S: 180 s quick, 600 s full; past it the run fails
+naming its stage, see bound.py).
 """
+import argparse
 import json
 import os
 import platform
@@ -38,9 +41,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
+import bound  # noqa: E402, I100 - benchmarks/bound.py, beside this file
 from px100_control.ros.common import make_executor  # noqa: E402 - after the path fix
 
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'ik_service.json')
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (180.0, 600.0)
 ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']
 
 
@@ -177,40 +183,83 @@ def _cpu_seconds(pid: int) -> float:
         return float('nan')
 
 
-def _ik_round(ctx, executor, clients: int, n_requests: int, poses, qos, run_sec: int,
-              server_pid: int = 0) -> dict:
+class _Spinner:
+    """
+    An executor spinning some nodes in a thread, for one round; ``stop()`` ends it cleanly.
+
+    rclpy 7.1's EventsExecutor applies add_node / remove_node in its spinning thread, later:
+    a node destroyed right after remove_node while that thread spins leaves the executor with
+    destroyed rcl entities (measured: an abort in shutdown, "Failed to clear the on new request
+    callback for service: service pointer is invalid", in the 8th null-service run under load;
+    most likely also the 8-client round that hung with its main thread in ``done.acquire``,
+    which waits for the GIL the spinning thread held). So the nodes are added before the thread
+    starts, and the thread is joined and the executor shut down before any node is destroyed.
+    """
+
+    def __init__(self, ctx, nodes):
+        self.ctx, self.nodes = ctx, list(nodes)
+        self.executor = make_executor(context=ctx)
+        for node in self.nodes:
+            self.executor.add_node(node)
+        self.running = threading.Event()
+        self.running.set()
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        try:
+            while self.running.is_set() and self.ctx.ok():
+                self.executor.spin_once(timeout_sec=0.1)
+        except Exception:  # noqa: B902 - context shut down under the executor
+            if self.running.is_set():
+                raise
+
+    def stop(self) -> None:
+        """Join the spinning thread, shut the executor down, then destroy the nodes."""
+        self.running.clear()
+        self.thread.join(10.0)
+        if self.thread.is_alive():
+            raise RuntimeError('the executor thread did not return from spin_once within 10 s')
+        self.executor.shutdown(timeout_sec=2.0)
+        for node in self.nodes:
+            node.destroy_node()
+
+
+def _ik_round(ctx, clients: int, n_requests: int, poses, qos, run_sec: int,
+              server_pid: int = 0, label: str = '') -> dict:
     done = threading.Semaphore(0)
     cl = [_Client(ctx, k, run_sec, poses, n_requests, qos, done) for k in range(clients)]
     rx = _Receiver(ctx, cl, qos, run_sec % 1000)
-    nodes = [c.node for c in cl] + [rx.node]
-    for node in nodes:
-        executor.add_node(node)
-    deadline = time.monotonic() + 20.0
-    while time.monotonic() < deadline and not (
-            all(c.pub.get_subscription_count() > 0 for c in cl)
-            and rx.node.count_publishers('/px100/ik/status') > 0):
-        time.sleep(0.05)
-    time.sleep(1.0)  # discovery of the reply readers settles
-    cpu0 = _cpu_seconds(server_pid)
-    t0 = time.perf_counter()
-    for c in cl:
-        c.send_next()
-    finished = 0
-    limit = time.monotonic() + max(60.0, n_requests * 0.05)
-    while finished < clients and time.monotonic() < limit:
-        if done.acquire(timeout=0.5):
-            finished += 1
-    elapsed = time.perf_counter() - t0
-    cpu = _cpu_seconds(server_pid) - cpu0
-    time.sleep(0.5)  # late duplicates would arrive now
+    spinner = _Spinner(ctx, [c.node for c in cl] + [rx.node])
+    try:
+        bound.stage(f'{label}: discovery of the service')
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and not (
+                all(c.pub.get_subscription_count() > 0 for c in cl)
+                and rx.node.count_publishers('/px100/ik/status') > 0):
+            time.sleep(0.05)
+        time.sleep(1.0)  # discovery of the reply readers settles
+        bound.stage(f'{label}: {clients} x {n_requests} requests')
+        cpu0 = _cpu_seconds(server_pid)
+        t0 = time.perf_counter()
+        for c in cl:
+            c.send_next()
+        finished = 0
+        limit = time.monotonic() + max(60.0, n_requests * 0.05)
+        while finished < clients and time.monotonic() < limit:
+            if done.acquire(timeout=0.5):
+                finished += 1
+        elapsed = time.perf_counter() - t0
+        cpu = _cpu_seconds(server_pid) - cpu0
+        time.sleep(0.5)  # late duplicates would arrive now
+    finally:
+        bound.stage(f'{label}: stopping the clients')
+        spinner.stop()
     rtt = np.array([x for c in cl for x in c.rtt]) * 1e3
     sent = sum(len(c.sent) for c in cl)
     lost = sum(1 for c in cl for i in c.sent
                if c.got[0].get(i, 0) == 0 or c.got[1].get(i, 0) == 0)
     dup = sum(1 for c in cl for kind in (0, 1) for v in c.got[kind].values() if v > 1)
-    for node in nodes:
-        executor.remove_node(node)
-        node.destroy_node()
     return {'clients': clients, 'requests': sent, 'answered': int(rtt.size),
             'elapsed_s': round(elapsed, 3),
             'requests_per_s': round(rtt.size / elapsed, 1) if elapsed > 0 else 0.0,
@@ -261,15 +310,6 @@ def null_server() -> int:
     return 0
 
 
-def _spin(executor, ctx) -> None:
-    """Spin until the context shuts down (EventsExecutor.spin() would not return)."""
-    try:
-        while ctx.ok():
-            executor.spin_once(timeout_sec=0.1)
-    except Exception:  # noqa: B902 - context shut down under the executor
-        pass
-
-
 def bench_ik(quick: bool, null: bool = False) -> dict:
     """Run the ik_service benchmark rounds (1 client, 8 clients); null: the null server."""
     import rclpy
@@ -283,19 +323,17 @@ def bench_ik(quick: bool, null: bool = False) -> dict:
         server = _start('px100_control.ros.ik_service_node')
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
-    executor = make_executor(context=ctx)
-    spinner = threading.Thread(target=_spin, args=(executor, ctx), daemon=True)
-    spinner.start()
     out = {}
+    name = 'null service' if null else 'ik_service'
     try:
         run_sec = int(time.time()) % 100000 * 100
         n1 = 1000 if quick else 5000
-        out['single_client'] = _ik_round(ctx, executor, 1, n1, poses, REQUEST_QOS, run_sec,
-                                         server.pid)
-        out['eight_clients'] = _ik_round(ctx, executor, 8, n1 // 4 if quick else n1 // 2,
-                                         poses, REQUEST_QOS, run_sec + 10, server.pid)
+        out['single_client'] = _ik_round(ctx, 1, n1, poses, REQUEST_QOS, run_sec,
+                                         server.pid, f'{name}, 1 client')
+        out['eight_clients'] = _ik_round(ctx, 8, n1 // 4 if quick else n1 // 2,
+                                         poses, REQUEST_QOS, run_sec + 10, server.pid,
+                                         f'{name}, 8 clients')
     finally:
-        executor.shutdown(timeout_sec=2.0)
         ctx.try_shutdown()
         _stop(server)
     return out
@@ -334,12 +372,10 @@ def bench_setpoint_jitter(quick: bool) -> dict:
     pub_goal = node.create_publisher(JointTrajectory, '/px100/trajectory/goal', 10)
     node.create_subscription(JointState, '/px100/commands/joint_setpoints', on_setpoint, 100)
     node.create_timer(0.01, publish_state)
-    executor = make_executor(context=ctx)
-    executor.add_node(node)
-    spinner = threading.Thread(target=_spin, args=(executor, ctx), daemon=True)
-    spinner.start()
+    spinner = _Spinner(ctx, [node])
     duration = 2.0 if quick else 5.0
     try:
+        bound.stage('trajectory_server: discovery, then one goal')
         deadline = time.monotonic() + 20.0
         while pub_goal.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -352,7 +388,7 @@ def bench_setpoint_jitter(quick: bool) -> dict:
         pub_goal.publish(goal)
         time.sleep(duration + 1.5)
     finally:
-        executor.shutdown(timeout_sec=2.0)
+        spinner.stop()
         ctx.try_shutdown()
         _stop(server)
     with lock:
@@ -382,12 +418,17 @@ def run(quick: bool = True) -> dict:
     return out
 
 
-def main() -> int:
+def main(argv=None) -> int:
     """Print the benchmark results and write benchmarks/results/ik_service.json."""
-    if '--null-server' in sys.argv:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--quick', action='store_true', help='fewer requests')
+    parser.add_argument('--null-server', action='store_true', help=argparse.SUPPRESS)
+    bound.add_argument(parser, *BOUND_S)
+    options = parser.parse_args(argv)
+    if options.null_server:
         return null_server()
-    quick = '--quick' in sys.argv
-    res = run(quick)
+    with bound.bounded('bench_ik_service', bound.seconds(options, options.quick)):
+        res = run(options.quick)
     for part, key in [(p, k) for p in ('ik_service', 'null_service_baseline')
                       for k in ('single_client', 'eight_clients')]:
         r = res[part][key]

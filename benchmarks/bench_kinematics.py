@@ -33,9 +33,12 @@ import sys
 import tempfile
 import time
 
+import bound
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (300.0, 900.0)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
@@ -571,6 +574,7 @@ def main(argv=None) -> int:
     parser.add_argument('--targets', type=int, default=0, help='number of targets')
     parser.add_argument('--json', default='', help='output path (default results/...)')
     parser.add_argument('--peers-only', action='store_true', help=argparse.SUPPRESS)
+    bound.add_argument(parser, *BOUND_S)
     options = parser.parse_args(argv)
     if options.peers_only:
         model = load_robot(options.robot)
@@ -580,7 +584,8 @@ def main(argv=None) -> int:
         with open(options.json, 'w') as f:
             json.dump({'rows': rows}, f)
         return 0
-    result = run(options.quick, options.robot, options.targets)
+    with bound.bounded(f'bench_kinematics {options.robot}', bound.seconds(options, options.quick)):
+        result = run(options.quick, options.robot, options.targets)
     print(f"## Kinematics benchmark: {result['robot']}, {result['targets']} targets "
           f"({result['machine']}; load average {result['load_average_1min_at_end']:.1f} at "
           'the end: timings scale with it)\n')

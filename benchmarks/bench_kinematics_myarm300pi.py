@@ -15,6 +15,8 @@ if HERE not in sys.path:
 import bench_kinematics  # noqa: E402 - after the path fix
 
 ROBOT = 'myarm300pi'
+#: the run's bound [s] (--quick, full): bench_kinematics's
+BOUND_S = bench_kinematics.BOUND_S
 
 
 def run(quick: bool = False) -> dict:

@@ -43,10 +43,13 @@ import statistics
 import sys
 import time
 
+import bound
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'physics.json')
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (180.0, 600.0)
 ORACLE_DIR = os.path.join(ROOT, 'test', 'sim')
 for path in (ROOT, os.path.join(ROOT, 'benchmarks')):
     if path not in sys.path:
@@ -83,7 +86,7 @@ def _moving(sim, model):
 
 def _held(model):
     """Return (sim, step function) with the red cube picked and the waist swinging."""
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.kinematics.rotations import euler_sxyz_to_matrix
     from px100_control.kinematics.solve import solve_ik
     from px100_control.sim.scene import load_scene
@@ -154,7 +157,7 @@ def run(quick: bool = False) -> dict:
 
 def _steps(seconds: float, rounds: int) -> dict:
     """Return the step-cost figures (see the module docstring, part 1)."""
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
     from px100_control.sim.scene import load_scene
     model = load_robot('px100')
@@ -192,7 +195,7 @@ def _driver(window: float, alternations: int) -> dict:
     time, the median of the pairs (the driver's overhead on the machine as it is then).
     """
     from bench_sim_driver import bench_unthrottled
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
     from px100_control.sim.scene import load_scene
     model = load_robot('px100')
@@ -276,8 +279,10 @@ def main(argv=None) -> int:
     """Run, print the table and write benchmarks/results/physics.json."""
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--quick', action='store_true', help='short rounds and windows')
+    bound.add_argument(parser, *BOUND_S)
     args = parser.parse_args(argv)
-    result = run(args.quick)
+    with bound.bounded('bench_physics', bound.seconds(args, args.quick)):
+        result = run(args.quick)
     print(result['markdown'])
     print(f'wrote {RESULTS}')
     return 0 if result['steps']['still_held_at_end'] == 'red_cube' else 1

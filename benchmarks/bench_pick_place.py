@@ -18,8 +18,14 @@ import sys
 import tempfile
 import time
 
+import bound
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
+#: the bound [s] of a run of N demos: BOUND_FIXED_S + N * BOUND_PER_RUN_S (a demo takes ~33 s)
+BOUND_FIXED_S, BOUND_PER_RUN_S = 60.0, 150.0
+#: the run's bound [s] with --quick (3 demos) and without (20): past it the run fails
+BOUND_S = (BOUND_FIXED_S + 3 * BOUND_PER_RUN_S, BOUND_FIXED_S + 20 * BOUND_PER_RUN_S)
 DEMO = os.path.join(ROOT, 'scripts', 'pick_and_place_demo.py')
 
 
@@ -71,6 +77,7 @@ def run(quick: bool = False, runs: int = 20, first_seed: int = 0, jitter: float 
     results = []
     with tempfile.TemporaryDirectory(prefix='px100_pick_place_') as out_dir:
         for seed in range(first_seed, first_seed + n):
+            bound.stage(f'demo run {seed - first_seed + 1} of {n} (seed {seed})')
             r = run_once(seed, jitter, out_dir, bag=bag,
                          extra=['--real-time-factor', str(real_time_factor)])
             results.append(r)
@@ -102,9 +109,14 @@ def main() -> int:
     parser.add_argument('--bag', action='store_true', help='record a bag in every run')
     parser.add_argument('--real-time-factor', type=float, default=1.0,
                         help='simulation speed of the demo (< 1 on a loaded machine)')
+    parser.add_argument('--bound', type=float, default=None, metavar='SECONDS',
+                        help=f'fail if the run takes longer (default {BOUND_FIXED_S:.0f} s + '
+                             f'{BOUND_PER_RUN_S:.0f} s per run)')
     args = parser.parse_args()
-    summary = run(runs=args.runs, first_seed=args.first_seed, jitter=args.jitter, bag=args.bag,
-                  real_time_factor=args.real_time_factor)
+    limit = args.bound or BOUND_FIXED_S + BOUND_PER_RUN_S * args.runs
+    with bound.bounded('bench_pick_place', limit):
+        summary = run(runs=args.runs, first_seed=args.first_seed, jitter=args.jitter,
+                      bag=args.bag, real_time_factor=args.real_time_factor)
     print(summary['markdown'])
     os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
     summary['date'] = time.strftime('%Y-%m-%d %H:%M')

@@ -24,8 +24,12 @@ import sys
 import tempfile
 import time
 
+import bound
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'recorder.json')
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (120.0, 300.0)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
@@ -206,10 +210,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--quick', action='store_true', help='5 s instead of 20 s')
     parser.add_argument('--publisher', type=float, default=None, help=argparse.SUPPRESS)
+    bound.add_argument(parser, *BOUND_S)
     options = parser.parse_args(argv)
     if options.publisher is not None:
         return publisher_main(options.publisher, 1000.0)
-    result = run(quick=options.quick)
+    with bound.bounded('bench_recorder', bound.seconds(options, options.quick)):
+        result = run(quick=options.quick, log=bound.log)
     print(result['markdown'])
     print(f'wrote {RESULTS}')
     return 0 if result['live_1khz']['dropped'] == 0 else 1

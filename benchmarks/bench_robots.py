@@ -30,9 +30,12 @@ import subprocess
 import sys
 import time
 
+import bound
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (180.0, 600.0)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'robots.json')
@@ -325,14 +328,18 @@ def main(argv=None) -> int:
     parser.add_argument('--robots', default='', help='comma-separated robot models')
     parser.add_argument('--vs-ik-lm', action='store_true',
                         help='default solve_ik against tuned roboticstoolbox ik_LM')
+    bound.add_argument(parser, *BOUND_S)
     options = parser.parse_args(argv)
     robots = [r for r in options.robots.split(',') if r] or None
+    limit = bound.seconds(options, options.quick)
     if options.vs_ik_lm:
-        figures = run_vs_ik_lm(quick=options.quick, robots=robots)
+        with bound.bounded('bench_robots --vs-ik-lm', limit):
+            figures = run_vs_ik_lm(quick=options.quick, robots=robots, log=bound.log)
         print(figures['markdown'])
         print(f'wrote {DISPATCH_RESULTS}')
         return 0
-    figures = run(quick=options.quick, robots=robots)
+    with bound.bounded('bench_robots', limit):
+        figures = run(quick=options.quick, robots=robots, log=bound.log)
     print(figures['markdown'])
     print(f'wrote {RESULTS}')
     return 0

@@ -19,8 +19,12 @@ import sys
 import tempfile
 import time
 
+import bound
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'robustness.json')
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (900.0, 10800.0)
 for p in (ROOT, os.path.join(ROOT, 'test')):
     if p not in sys.path:
         sys.path.insert(0, p)
@@ -250,18 +254,21 @@ def main(argv=None) -> int:
     parser.add_argument('--count', type=int, help='inputs per fuzz target')
     parser.add_argument('--output', default=RESULTS)
     parser.add_argument('--target', action='append', help='fuzz only this target (repeatable)')
+    bound.add_argument(parser, *BOUND_S)
     opts = parser.parse_args(argv)
 
     def log(text):
         print(f'[robustness {time.strftime("%H:%M:%S")}] {text}', flush=True)
+        bound.stage(text)
 
     base = {}
     if opts.only and os.path.exists(opts.output):  # add these sections to an earlier run
         with open(opts.output, encoding='utf-8') as f:
             base = {k: v for k, v in json.load(f).items()
                     if k in ('fuzz', 'largest_goal', 'faults', 'load')}
-    result = run(quick=opts.quick, only=opts.only, count=opts.count, log=log,
-                 output=opts.output, targets=opts.target, base=base)
+    with bound.bounded('bench_robustness', bound.seconds(opts, opts.quick)):
+        result = run(quick=opts.quick, only=opts.only, count=opts.count, log=log,
+                     output=opts.output, targets=opts.target, base=base)
     write(result, opts.output)
     print(json.dumps(result['summary'], indent=1))
     print(f'written to {opts.output}')

@@ -21,9 +21,12 @@ import sys
 import threading
 import time
 
+import bound
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (120.0, 300.0)
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'sim_driver.json')
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
@@ -261,8 +264,10 @@ def main(argv=None) -> int:
     """Run the benchmark, print the figures and write benchmarks/results/sim_driver.json."""
     parser = argparse.ArgumentParser(description='sim_driver publish jitter')
     parser.add_argument('--quick', action='store_true', help='short windows')
+    bound.add_argument(parser, *BOUND_S)
     args = parser.parse_args(argv)
-    figures = run(args.quick)
+    with bound.bounded('bench_sim_driver', bound.seconds(args, args.quick)):
+        figures = run(args.quick, log=bound.log)
     print(figures['markdown'])
     print(f'wrote {RESULTS}')
     return 0

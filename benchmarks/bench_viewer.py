@@ -32,9 +32,12 @@ import sys
 import threading
 import time
 
+import bound
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: the run's bound [s] with --quick and without: past it the run fails naming its stage
+BOUND_S = (180.0, 420.0)
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'viewer.json')
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
@@ -291,6 +294,7 @@ def main(argv=None) -> int:
     parser.add_argument('--idle', type=float, default=None, metavar='SECONDS',
                         help='only the CPU share with no browser over SECONDS (printed, '
                              'not written)')
+    bound.add_argument(parser, *BOUND_S)
     args = parser.parse_args(argv)
     if args.idle is not None:
         load0 = os.getloadavg()[0]
@@ -299,7 +303,9 @@ def main(argv=None) -> int:
               f'{100 * share:.1f} % of a core (load average {load0:.2f} -> '
               f'{os.getloadavg()[0]:.2f})')
         return 0
-    figures = run(args.quick, viewport=tuple(int(v) for v in args.viewport.split('x')))
+    with bound.bounded('bench_viewer', bound.seconds(args, args.quick)):
+        figures = run(args.quick, log=bound.log,
+                      viewport=tuple(int(v) for v in args.viewport.split('x')))
     print(figures['markdown'])
     os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
     with open(RESULTS, 'w') as f:

@@ -5,7 +5,8 @@ Each ``benchmarks/bench_<name>.py`` exposes ``run(quick: bool) -> dict``; a dict
 ``markdown`` entry (its own table) and anything else as figures. Output:
 ``benchmarks/results/summary.md`` and ``benchmarks/results/summary.json``, with the date and
 the machine. Usage: ``python benchmarks/run_all.py [--quick] [--only kinematics,ik_service]
-[--merge]``.
+[--merge] [--bound SECONDS]``. The run's bound is the sum of the chosen benchmarks' BOUND_S
+(bound.py: past it the run fails naming the benchmark and its stage).
 """
 import argparse
 import datetime
@@ -16,6 +17,8 @@ import platform
 import sys
 import time
 import traceback
+
+import bound
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ORDER = ['kinematics', 'kinematics_myarm300pi', 'robots', 'sim_driver', 'physics', 'ik_service',
@@ -80,11 +83,21 @@ def main(argv=None) -> int:
     parser.add_argument('--merge', action='store_true',
                         help='keep the other sections of the existing summary (each section '
                              'says when it was run)')
+    parser.add_argument('--bound', type=float, default=None, metavar='SECONDS',
+                        help='fail if the run takes longer (default: the sum of the bounds '
+                             'BOUND_S of the chosen benchmarks)')
     options = parser.parse_args(argv)
     present = [n for n in ORDER if os.path.isfile(os.path.join(HERE, f'bench_{n}.py'))]
     present += sorted(f[6:-3] for f in os.listdir(HERE)
                       if f.startswith('bench_') and f.endswith('.py') and f[6:-3] not in present)
     names = [n for n in present if not options.only or n in options.only.split(',')]
+    limit = options.bound or sum(_load(n).BOUND_S[0 if options.quick else 1] for n in names)
+    with bound.bounded('run_all', limit):
+        return _run(options, present, names)
+
+
+def _run(options, present, names) -> int:
+    """Run the chosen benchmarks and write the summary files."""
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')
     results, sections, failed = {}, {}, []
     summary_json = os.path.join(HERE, 'results', 'summary.json')
@@ -97,6 +110,7 @@ def main(argv=None) -> int:
                 sections[name] = _section(name, figures)
     for name in names:
         print(f'=== {name} ===', flush=True)
+        bound.stage(name)
         t0 = time.monotonic()
         try:
             figures = _load(name).run(quick=options.quick)

@@ -6,7 +6,7 @@ Seed 001 (a student's PincherX-100 project) reports steady-state error, overshoo
 time for six (Kp, Ki, Kv) sets. Its gains are DYNAMIXEL register units (640/0/4000 is the
 XL430's factory Position P/I/D); it names neither the joint, the start pose, the step, the load
 nor its simulation tool. This script runs the six sets on
-:class:`px100_control.control.simulator.ArmSimulator` (MuJoCo, XL430 servo model, 1 kHz) for a
+:class:`px100_control.sim.simulator.ArmSimulator` (MuJoCo, XL430 servo model, 1 kHz) for a
 :class:`Plant`:
 
 - ``PHYSICAL``: the px100 as the demo simulates it (URDF friction and damping, the XL430 model
@@ -49,8 +49,8 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 from px100_control.control.pid import PidGains  # noqa: E402
-from px100_control.control.simulator import ArmSimulator, SimConfig  # noqa: E402
 from px100_control.models.registry import load_robot  # noqa: E402
+from px100_control.sim.simulator import ArmSimulator, SimConfig  # noqa: E402
 
 #: seed 001's gain sets (Kp, Ki, Kv) in DYNAMIXEL register units and its reported results
 SEED_TABLE = [

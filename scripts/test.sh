@@ -19,4 +19,5 @@ RERUNS=${PX100_RERUNS:-0}
 if [ "$RERUNS" -gt 0 ]; then
   set -- --reruns "$RERUNS" --reruns-delay 1 "$@"
 fi
-python -m pytest -q -rR -p no:cacheprovider "$@"
+# the slowest 20 tests and their times close every run (--durations=20)
+python -m pytest -q -rR -p no:cacheprovider --durations=20 "$@"

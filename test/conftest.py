@@ -3,9 +3,15 @@ Shared test setup: a private DDS domain for this run, localhost-only discovery, 
 
 The domain comes from ROS_DOMAIN_ID if the runner set one (scripts/test.sh picks a random one),
 otherwise one derived from the process id, so parallel runs do not see each other.
+
+The quick tier (``pytest -m quick``, ``bash scripts/test_quick.sh``): the tests of the pure
+layers (QUICK_PATHS) not marked ros, slow, stress or linter get the ``quick`` marker. A quick
+test that starts a ROS graph (an rclpy context, a node executable) fails, so a graph test cannot
+slip into the tier unnoticed; with ``-m quick`` only QUICK_PATHS are collected (test/tiers.py).
 """
 import os
 import signal
+import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -17,6 +23,104 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 import pytest  # noqa: E402
+from tiers import NOT_QUICK, QUICK_PATHS  # noqa: E402
+
+
+def _in_quick_paths(path) -> bool:
+    rel = os.path.relpath(str(path), ROOT).replace(os.sep, '/')
+    return any(rel == q.rstrip('/') or rel.startswith(q) for q in QUICK_PATHS)
+
+
+def _quick_run(config) -> bool:
+    return (config.getoption('markexpr', '') or '').strip() == 'quick'
+
+
+def pytest_ignore_collect(collection_path, config):
+    """With ``-m quick``, collect only QUICK_PATHS (the other modules import ROS: slow)."""
+    if not _quick_run(config) or collection_path.is_dir():
+        return None
+    if collection_path.suffix == '.py' and collection_path.name.startswith('test_'):
+        return None if _in_quick_paths(collection_path) else True
+    return None
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Mark ``quick`` the tests of QUICK_PATHS that carry none of NOT_QUICK's markers."""
+    for item in items:
+        if _in_quick_paths(item.path) and not any(
+                item.get_closest_marker(m) for m in NOT_QUICK):
+            item.add_marker(pytest.mark.quick)
+
+
+class QuickTierViolation(RuntimeError):
+    """A quick-tier test started a ROS graph (an rclpy context or a node executable)."""
+
+
+def _starts_a_node(args) -> bool:
+    """Return whether a command line runs one of this package's ROS executables (not --help)."""
+    argv = [str(a) for a in ([args] if isinstance(args, (str, bytes, os.PathLike)) else args)]
+    text = ' '.join(argv)
+    node = ('px100_control.ros.' in text or '/lib/px100_control/' in text
+            or os.path.basename(argv[0]) in ('ros2', 'launch') if argv else False)
+    return node and not any(a in ('--help', '-h') for a in argv)
+
+
+def guard_ros_graph(patch, started: list) -> None:
+    """
+    Make starting a ROS graph raise QuickTierViolation and note it in ``started``.
+
+    Guarded: ``rclpy.Context.init`` (what ``rclpy.init`` calls) and ``subprocess.Popen`` of
+    this package's node executables (``NodeProcess``, ``python -m px100_control.ros.*``).
+
+    :param patch: ``patch(owner, name, value)``, e.g. a MonkeyPatch's setattr
+    :param started: a list the guard appends a description of each attempt to
+    """
+    try:
+        import rclpy.context  # optional: guarded only where rclpy is installed
+    except ImportError:
+        rclpy = None
+    if rclpy is not None:
+        def _no_context(self, *args, **kwargs):
+            started.append('rclpy.Context.init (an rclpy context: a ROS graph)')
+            raise QuickTierViolation('a quick-tier test created an rclpy context')
+        patch(rclpy.context.Context, 'init', _no_context)
+    popen_init = subprocess.Popen.__init__
+
+    def _popen(self, args, *rest, **kwargs):
+        if _starts_a_node(args):
+            started.append(f'subprocess {args!r} (a ROS node process)')
+            raise QuickTierViolation(f'a quick-tier test started a ROS node: {args!r}')
+        popen_init(self, args, *rest, **kwargs)
+    patch(subprocess.Popen, '__init__', _popen)
+
+
+#: ROS graphs started in a ``-m quick`` run (guarded for the whole session: module fixtures too)
+_QUICK_RUN_STARTED = []
+
+
+def pytest_configure(config):
+    """In a ``-m quick`` run, guard against a ROS graph from the start (fixtures included)."""
+    if _quick_run(config):
+        guard_ros_graph(setattr, _QUICK_RUN_STARTED)
+
+
+@pytest.fixture(autouse=True)
+def _quick_tests_start_no_ros_graph(request, monkeypatch):
+    """Fail a test marked ``quick`` that started a ROS graph (even if it caught the error)."""
+    if request.node.get_closest_marker('quick') is None:
+        yield
+        return
+    if _quick_run(request.config):
+        started, before = _QUICK_RUN_STARTED, len(_QUICK_RUN_STARTED)
+    else:
+        started, before = [], 0
+        guard_ros_graph(monkeypatch.setattr, started)
+    yield
+    if len(started) > before:
+        pytest.fail(f'{request.node.nodeid} is in the quick tier (pure layers, no ROS graph) '
+                    f'but started {"; ".join(started[before:])}: mark it ros, or move it out '
+                    'of QUICK_PATHS (test/tiers.py)', pytrace=False)
 
 
 @pytest.fixture(autouse=True)

@@ -3,11 +3,13 @@ The architecture, checked on the source with ast (so it also holds on a machine 
 
 - The pure layers (wire, kinematics, models, control, sim, bag, viewer, perception) import no
   rclpy, *_msgs package or builtin_interfaces.
-- Layer order, lowest first: errors/paths/parameters (the parameter schemas: data the engines
-  check against and the nodes declare), wire, kinematics, models, then control / sim / bag /
-  viewer / tools / perception, then ros, then client. A module imports only from its own layer
-  or lower ones.
-- No import cycles between modules.
+- Layer order of the packages, lowest first: errors/paths/parameters (the parameter schemas:
+  data the engines check against and the nodes declare), wire, kinematics, models, then
+  control / bag / tools / perception (the camera model and the cloud filter), then sim (the
+  simulated plant: it runs control's PID, servo and gripper models, and renders the camera) /
+  viewer (it plays bags), then ros, then client. A module imports only from its own package or
+  from a package of a strictly lower rank (two packages of one rank do not import each other).
+- No import cycles, between modules nor between packages.
 - Imports sit at the top of a module (project, standard library, third-party and ROS alike);
   one inside a function must say why on its line (``# optional: why``): an optional dependency
   or one that is slow to import, loaded when used.
@@ -16,6 +18,7 @@ The architecture, checked on the source with ast (so it also holds on a machine 
   most 20 (the logic lives in the pure layers and in ros/ helper modules).
 """
 import ast
+import functools
 import os
 import re
 
@@ -26,11 +29,11 @@ ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
 PURE = ('wire', 'models', 'kinematics', 'control', 'sim', 'bag', 'viewer', 'perception')
 #: top-level modules that are pure too
 PURE_MODULES = ('errors.py', 'paths.py', 'parameters.py')
-#: layer rank of each top-level package of px100_control (a module may import rank <= its own)
+#: layer rank of each top-level package (or module) of px100_control: a module imports its own
+#: package or packages of a strictly lower rank
 LAYERS = {'errors': 0, 'paths': 0, 'parameters': 0, '__init__': 0, 'wire': 1, 'kinematics': 2,
-          'models': 3, 'control': 4, 'sim': 4, 'bag': 4, 'viewer': 4, 'tools': 4,
-          'perception': 4, 'ros': 5,
-          'client': 6}
+          'models': 3, 'control': 4, 'bag': 4, 'tools': 4, 'perception': 4, 'sim': 5,
+          'viewer': 5, 'ros': 6, 'client': 7}
 
 
 def _forbidden(module: str) -> bool:
@@ -50,9 +53,18 @@ def _pure_files():
                     yield os.path.join(dirpath, f)
 
 
-def _imports(path):
+@functools.lru_cache(maxsize=None)
+def _parsed(path: str):
+    """Return (text, lines, tree, {child: parent}) of a source file (parsed once per run)."""
     with open(path, encoding='utf-8') as f:
-        tree = ast.parse(f.read(), filename=path)
+        text = f.read()
+    tree = ast.parse(text, filename=path)
+    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    return text, text.split('\n'), tree, parents
+
+
+def _imports(path):
+    tree = _parsed(path)[2]
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
@@ -100,11 +112,7 @@ def _module_name(path: str) -> str:
 
 def _project_imports(path: str):
     """Yield (line, imported module, inside a function, marked optional) of project imports."""
-    with open(path, encoding='utf-8') as f:
-        text = f.read()
-    lines = text.split('\n')
-    tree = ast.parse(text, filename=path)
-    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    _, lines, tree, parents = _parsed(path)
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -146,14 +154,39 @@ def _layer(module: str) -> str:
 
 
 def _upward(graph):
-    """Return ['a (layer) -> b (layer), line n'] of imports from a lower layer to a higher one."""
+    """Return ['a (layer) -> b (layer), line n'] of imports of a package of no lower rank."""
     bad = []
     for module, edges in graph.items():
         for target, line, _, _ in edges:
-            if LAYERS[_layer(target)] > LAYERS[_layer(module)]:
-                bad.append(f'{module} ({_layer(module)}) -> {target} ({_layer(target)}), '
-                           f'line {line}')
-    return bad
+            here, there = _layer(module), _layer(target)
+            if here != there and LAYERS[there] >= LAYERS[here]:
+                bad.append(f'{module} ({here}) -> {target} ({there}), line {line}')
+    return sorted(bad)
+
+
+def _package_graph(graph):
+    """Return {package: {imported package: ['a -> b, line n', ...]}} (packages = layers)."""
+    out = {}
+    for module, edges in graph.items():
+        deps = out.setdefault(_layer(module), {})
+        for target, line, _, _ in edges:
+            if _layer(target) != _layer(module):
+                deps.setdefault(_layer(target), []).append(f'{module} -> {target}, line {line}')
+    return {pkg: {dep: sorted(why) for dep, why in deps.items()} for pkg, deps in out.items()}
+
+
+def _package_cycles(graph):
+    """Return one text per package cycle: its packages and the imports that close it."""
+    packages = _package_graph(graph)
+    as_edges = {pkg: {(dep,) for dep in deps} for pkg, deps in packages.items()}
+    out = []
+    for comp in _cycles(as_edges):
+        more = {1: ''}
+        imports = [f'{pkg} -> {dep}: {why[0]}' + more.get(len(why), f' (+{len(why) - 1} more)')
+                   for pkg in sorted(comp) for dep, why in sorted(packages[pkg].items())
+                   if dep in comp]
+        out.append(f'packages {sorted(comp)} import each other:\n  ' + '\n  '.join(imports))
+    return out
 
 
 def _cycles(graph):
@@ -195,19 +228,31 @@ def _all_files():
                 yield os.path.join(dirpath, f)
 
 
+@functools.lru_cache(maxsize=None)
+def _package_tree_graph():
+    """Return _graph of every module of the package (built once per run)."""
+    return _graph(list(_all_files()))
+
+
 def test_every_package_has_a_layer():
     assert {_layer(_module_name(f)) for f in _all_files()} <= set(LAYERS)
 
 
 def test_layer_order():
-    """No module imports from a higher layer (e.g. kinematics from models, bag from ros)."""
-    bad = _upward(_graph(list(_all_files())))
-    assert not bad, 'imports from a higher layer:\n' + '\n'.join(bad)
+    """No module imports a package of its rank or higher (models from kinematics, sim from ros)."""
+    bad = _upward(_package_tree_graph())
+    assert not bad, 'imports from the same or a higher layer:\n' + '\n'.join(bad)
+
+
+def test_no_package_cycles():
+    """No two packages import each other, even through modules that form no module cycle."""
+    cycles = _package_cycles(_package_tree_graph())
+    assert not cycles, '\n'.join(cycles)
 
 
 def test_no_import_cycles():
     """No cycle among the modules (function-level imports count)."""
-    cycles = _cycles(_graph(list(_all_files())))
+    cycles = _cycles(_package_tree_graph())
     assert not cycles, cycles
 
 
@@ -220,11 +265,7 @@ _OPTIONAL = re.compile(r'#\s*optional:\s*\S')
 
 def _function_imports(path: str):
     """Yield (line, function, imported module, marked '# optional: why') of function imports."""
-    with open(path, encoding='utf-8') as f:
-        text = f.read()
-    lines = text.split('\n')
-    tree = ast.parse(text, filename=path)
-    parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+    _, lines, tree, parents = _parsed(path)
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -269,10 +310,8 @@ def test_private_apis_in_one_module():
     for f in _all_files():
         if f.endswith(os.path.join('wire', 'private_api.py')):
             continue
-        with open(f, encoding='utf-8') as src:
-            text = src.read()
         bad += [os.path.relpath(f, ROOT) for word in ('take_message', 'mcap_ros2._dynamic')
-                if word in text]
+                if word in _parsed(f)[0]]
     assert not bad, bad
 
 
@@ -293,6 +332,36 @@ def test_checks_catch_an_upward_import_a_cycle_and_a_hidden_import(tmp_path):
                                   'px100_control.models.b (models), line 2']
         assert _cycles(graph) == [{'px100_control.kinematics.a', 'px100_control.models.b'}]
         assert [e for e in graph['px100_control.kinematics.a'] if e[2] and not e[3]]
+    finally:
+        ROOT = saved
+
+
+def test_checks_catch_packages_that_import_each_other(tmp_path):
+    """control.a -> sim.b and sim.c -> control.d: no module cycle, but a package cycle."""
+    pkg = tmp_path / 'px100_control'
+    for folder in ('control', 'sim'):
+        (pkg / folder).mkdir(parents=True)
+    (pkg / 'control' / 'a.py').write_text('from px100_control.sim import b\n')
+    (pkg / 'sim' / 'b.py').write_text('X = 1\n')
+    (pkg / 'sim' / 'c.py').write_text('\n\nfrom px100_control.control.d import Y\n')
+    (pkg / 'control' / 'd.py').write_text('Y = 2\n')
+    global ROOT
+    saved, ROOT = ROOT, str(pkg)
+    try:
+        graph = _graph([str(p) for p in sorted(pkg.rglob('*.py'))])
+        assert _cycles(graph) == []
+        assert _package_cycles(graph) == [
+            "packages ['control', 'sim'] import each other:\n"
+            '  control -> sim: px100_control.control.a -> px100_control.sim.b, line 1\n'
+            '  sim -> control: px100_control.sim.c -> px100_control.control.d, line 3']
+        assert _upward(graph) == ['px100_control.control.a (control) -> '
+                                  'px100_control.sim.b (sim), line 1']
+        saved_layers = dict(LAYERS)
+        LAYERS['sim'] = LAYERS['control']       # same rank: the import is refused either way
+        try:
+            assert len(_upward(graph)) == 2
+        finally:
+            LAYERS.update(saved_layers)
     finally:
         ROOT = saved
 
@@ -359,9 +428,7 @@ def _callback_names(tree) -> set:
 
 def _too_long(path: str) -> list:
     """Return what makes a node module too long: its line count, callbacks over the limit."""
-    with open(path, encoding='utf-8') as f:
-        text = f.read()
-    tree = ast.parse(text, filename=path)
+    text, _, tree, _ = _parsed(path)
     bad = []
     if len(text.splitlines()) > MAX_NODE_LINES:
         bad.append(f'{len(text.splitlines())} lines')

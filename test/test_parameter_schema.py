@@ -72,7 +72,7 @@ def test_checks_match_the_values_the_nodes_know():
     """Choices in the schema are the engines' own lists (no drift)."""
     from px100_control.control.trajectory import PROFILES
     from px100_control.control.pid import GAIN_FIELDS
-    from px100_control.control.simulator import MODES
+    from px100_control.sim.simulator import MODES
     from px100_control.kinematics.solve import METHODS
     assert tuple(ps.IK_SERVICE['method'].choices) == tuple(METHODS)
     assert tuple(ps.TRAJECTORY_SERVER['profile'].choices) == tuple(PROFILES)
@@ -173,6 +173,7 @@ def test_help_covers_every_executable():
     assert set(HELP_SCHEMAS) == set(exes)
 
 
+@pytest.mark.slow                  # one process start per executable
 @pytest.mark.parametrize('name', sorted(HELP_SCHEMAS))
 def test_help_prints_the_parameters(name):
     """`<exe> --help` lists every parameter and parameter group with default and constraints."""
@@ -193,6 +194,7 @@ def test_help_prints_the_parameters(name):
             assert line in out, out
 
 
+@pytest.mark.ros
 def test_descriptors_of_a_running_node(rclpy_context):
     """Declared descriptors carry description, range and read-only (ros2 param describe)."""
     from px100_control.ros.trajectory_server_node import TrajectoryServerNode
@@ -223,6 +225,7 @@ def test_descriptors_of_a_running_node(rclpy_context):
         node.destroy_node()
 
 
+@pytest.mark.ros
 def test_per_joint_groups_on_a_running_driver(rclpy_context, tmp_path):
     """
     A params file with torque_enable / operating_mode / gains groups starts a real sim_driver.
@@ -270,6 +273,7 @@ def test_per_joint_groups_on_a_running_driver(rclpy_context, tmp_path):
         node.destroy_node()
 
 
+@pytest.mark.ros
 def test_a_bad_value_at_start_names_the_parameter(rclpy_context):
     """A node given an out-of-range override refuses to start and says which and why."""
     from px100_control.ros.ik_service_node import IkServiceNode

@@ -1,7 +1,7 @@
 """
 sim_driver: the simulated joint-state driver (joint dynamics + one PID loop per joint).
 
-A thin rclpy adapter over :class:`px100_control.control.simulator.ArmSimulator`
+A thin rclpy adapter over :class:`px100_control.sim.simulator.ArmSimulator`
 (docs/ros_interfaces.md, sim_driver section). Topics in the node's namespace (the robot's):
 
 - pub ``joint_states`` (sensor_msgs/JointState, ``publish_rate``): arm joints, gripper,
@@ -52,7 +52,6 @@ from typing import List, Optional
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
-from px100_control.control.simulator import ArmSimulator, parse_setpoints, SimConfig
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.parameters import SIM_DRIVER
@@ -68,6 +67,7 @@ from px100_control.ros.sim_physics import PhysicsThread, YieldingLock
 from px100_control.ros.world import WorldPublisher
 from px100_control.sim.driver_parameters import (core_change_error, core_error, CORE_PARAMS,
                                                  GAINS_UNITS)
+from px100_control.sim.simulator import ArmSimulator, parse_setpoints, SimConfig
 from px100_control.sim.stepper import Stepper
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup

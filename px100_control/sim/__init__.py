@@ -1,6 +1,15 @@
 """
-The MuJoCo world of the simulated arm: scenes as files and the MuJoCo model built from the URDF.
+The simulated arm and its MuJoCo world.
 
+Scenes as files, the MuJoCo model built from the URDF and the simulator that steps it under the
+control laws of :mod:`px100_control.control`.
+
+Layering: ``sim`` builds on ``control`` (the PID, servo and gripper-linkage models it runs),
+never the other way round; the ROS nodes (:mod:`px100_control.ros`) sit above both.
+
+- :mod:`.simulator`: :class:`~.simulator.ArmSimulator`, the arm, its gripper and the scene
+  under per-joint PIDs and the XL430 servo model, stepped by the caller (moved here from
+  ``px100_control.control.simulator``: import it from ``px100_control.sim.simulator``);
 - :mod:`.scene`: ``load_scene(name_or_path, robot=None) -> Scene`` (config/scenes/<name>.yaml,
   default ``pick_place``; bad files raise InvalidInputError naming the field);
 - :mod:`.mjcf`: ``build_model(robot, scene)``: the MjModel (URDF + generated collision
@@ -9,10 +18,9 @@ The MuJoCo world of the simulated arm: scenes as files and the MuJoCo model buil
   now, or on an own clock at a real-time factor; times as arguments);
 - :mod:`.driver_parameters`: the sim_driver's parameter checks and gain conversions.
 
-The simulator that runs it is :class:`px100_control.control.simulator.ArmSimulator`. Usage
-(robot base frame, SI units, quaternions x, y, z, w)::
+Usage (robot base frame, SI units, quaternions x, y, z, w)::
 
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     from px100_control.models.registry import load_robot
     from px100_control.sim.scene import load_scene
 

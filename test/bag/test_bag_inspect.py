@@ -47,6 +47,7 @@ def test_series_and_tracking_error(run_bag):
                              np.array([10.0, 20.0])).tolist()[1:] == [10.0, 20.0]
 
 
+@pytest.mark.slow                  # renders the plots and a GIF
 def test_plots_and_gif_are_written(run_bag, tmp_path, capsys):
     """joints.png, tracking_error.png, ee_path.png and a multi-frame arm.gif."""
     out = str(tmp_path / 'plots')

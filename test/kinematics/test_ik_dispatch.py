@@ -19,6 +19,7 @@ from px100_control.kinematics.iterative import chain, fk_batch
 from px100_control.kinematics.solve import pose_rows, solve_ik
 from px100_control.models.registry import available_robots, load_robot
 import pytest
+from tiers import robots
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__)))), 'benchmarks'))
@@ -68,7 +69,7 @@ def test_myarm_default_path_continues_from_the_seed():
         assert np.abs(res.q - q).max() < 0.5
 
 
-@pytest.mark.parametrize('name', available_robots())
+@pytest.mark.parametrize('name', robots(available_robots()))
 def test_traps_have_no_false_success(name):
     m = load_robot(name)
     traps = trap_targets(m, 8, seed=21)

@@ -6,12 +6,12 @@ middleware reads them back right; here they are read back and compared with the 
 the slow way, for the default scene's markers too.
 """
 from px100_control.bag.world import world_markers
-from px100_control.control.simulator import ArmSimulator
 from px100_control.models.registry import load_robot
 from px100_control.ros import cdr
 from px100_control.ros.sim_messages import StateMessages
 from px100_control.ros.world_msgs import marker_array, raw_marker_writer, update_marker_array
 from px100_control.sim.scene import load_scene
+from px100_control.sim.simulator import ArmSimulator
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock

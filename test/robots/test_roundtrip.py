@@ -18,6 +18,7 @@ from px100_control.kinematics.iterative import chain, fk_batch
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import available_robots, load_robot
 import pytest
+from tiers import robots
 
 POSE_TOL = 1e-9
 FULL = 10000
@@ -58,7 +59,7 @@ def _closed_form_roundtrip(name: str, count: int, seed: int) -> dict:
             'max_verified_error': float(err[kept].max())}
 
 
-@pytest.mark.parametrize('name', NON_REDUNDANT)
+@pytest.mark.parametrize('name', robots(NON_REDUNDANT))
 def test_closed_form_roundtrip_10k(name):
     """10,000 configurations per robot: every branch found, verified candidates exact."""
     stats = _closed_form_roundtrip(name, FULL, seed=10_000)

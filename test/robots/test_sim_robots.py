@@ -4,7 +4,8 @@ The simulated driver works for other robot models: their joints, limits and appr
 Pure part: the ArmSimulator (MuJoCo model built from the robot's URDF; table robots' dynamics
 from the generated URDF's approximate inertials, see models/urdf_writer.py) of every registered
 robot holds the sleep pose and drives the arm to home and to a random in-limit pose (all 18
-robots take about 25 s on a loaded 2-core machine, so all of them run by default). ROS part:
+robots take about 25 s on a loaded 2-core machine: all of them run in the full suite, one per
+kinematic family in the quick tier, test/tiers.py). ROS part:
 SimDriverNode with ``robot_model:=<name>`` publishes the model's URDF on ``robot_description``
 (FK computed from it equals the model's), ``joint_states`` with the model's joints, and
 ``ee_pose`` = FK(joint_states).
@@ -14,17 +15,18 @@ import time
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
-from px100_control.control.simulator import ArmSimulator, SimConfig
 from px100_control.kinematics.poe import fk_space
 from px100_control.models.registry import available_robots, load_robot
 from px100_control.models.urdf_chain import chain_to_poe, load_urdf
 from px100_control.ros.conversions import pose_to_matrix
+from px100_control.sim.simulator import ArmSimulator, SimConfig
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
+from tiers import robots
 
 SIM_ROBOTS = available_robots()
 ROS_ROBOTS = ['rrrr', 'myarm300pi', 'wx250s']
@@ -41,7 +43,7 @@ def _drive(sim, m, target, seconds):
     return np.abs(sim.positions() - target)
 
 
-@pytest.mark.parametrize('name', SIM_ROBOTS)
+@pytest.mark.parametrize('name', robots(SIM_ROBOTS))
 def test_simulator_holds_sleep_and_reaches_targets(name):
     """Sleep is held; home and a random in-limit pose are reached within 0.01 rad / 2 mm."""
     m = load_robot(name)

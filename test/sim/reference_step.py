@@ -9,7 +9,7 @@ test/ as the oracle of that speed-up.
 """
 import mujoco
 import numpy as np
-from px100_control.control.simulator import ArmSimulator
+from px100_control.sim.simulator import ArmSimulator
 
 
 class ReferenceStepSimulator(ArmSimulator):

@@ -1,8 +1,8 @@
 """The sim_driver's parameter checks and conversions on a real ArmSimulator (no ROS)."""
 from px100_control.control.pid import GAIN_FIELDS, PidGains
-from px100_control.control.simulator import ArmSimulator
 from px100_control.models.registry import load_robot
 from px100_control.sim import driver_parameters as dp
+from px100_control.sim.simulator import ArmSimulator
 from px100_control.sim.stepper import Stepper
 import pytest
 

@@ -9,12 +9,12 @@ import dataclasses
 import math
 
 import numpy as np
-from px100_control.control.simulator import ArmSimulator
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
 from px100_control.sim.scene import available_scenes, load_scene
+from px100_control.sim.simulator import ArmSimulator
 import pytest
 
 STRONG, WEAK = -0.4, -0.25        # gripper efforts [N*m] (250 and 158 PWM)

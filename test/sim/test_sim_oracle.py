@@ -10,9 +10,10 @@ closed-loop moves of the old simulator (oracle_simulator.py) and the MuJoCo one 
 import numpy as np
 from oracle_dynamics import dynamics_for_model
 from oracle_simulator import ArmSimulator as OracleSimulator, SimConfig as OracleConfig
-from px100_control.control.simulator import ArmSimulator
 from px100_control.models.registry import available_robots, load_robot
+from px100_control.sim.simulator import ArmSimulator
 import pytest
+from tiers import robots
 
 
 def _oracle(sim):
@@ -24,7 +25,7 @@ def _oracle(sim):
     return dynamics_for_model(model, [s.armature for s in sim.servos], fixed_values=fixed)
 
 
-@pytest.mark.parametrize('name', available_robots())
+@pytest.mark.parametrize('name', robots(available_robots()))
 def test_mass_matrix_and_bias_forces_equal_the_oracle(name):
     """M(q) + armature and h(q, qd) = C qd + g agree to 1e-12 relative on random states."""
     model = load_robot(name)

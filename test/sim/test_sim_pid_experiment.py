@@ -6,6 +6,8 @@ import os
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+#: runs scripts/pid_experiment.py (twelve simulated step responses): not in the quick tier
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope='module')
@@ -45,7 +47,7 @@ def test_tuned_plant_is_closer_to_the_table(experiment, results, tuned):
     assert sum(v > 0 for v in cells.values()) <= 8
     assert max(cells.values()) < 0.5, cells
     # only the experiment's simulator changed: a default simulator is the physical plant
-    from px100_control.control.simulator import ArmSimulator
+    from px100_control.sim.simulator import ArmSimulator
     model = experiment.load_robot('px100')
     sim = ArmSimulator(model)
     assert sim.friction == [0.1] * 4 and sim.damping == [0.1] * 4

@@ -3,9 +3,9 @@ import math
 
 import numpy as np
 from px100_control.control.pid import PidGains
-from px100_control.control.simulator import ArmSimulator, parse_setpoints
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
 from px100_control.models.registry import load_robot
+from px100_control.sim.simulator import ArmSimulator, parse_setpoints
 import pytest
 
 ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']

@@ -13,11 +13,11 @@ must be equal bit for bit.
 import math
 
 import numpy as np
-from px100_control.control.simulator import ArmSimulator
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
 from px100_control.sim.scene import load_scene
+from px100_control.sim.simulator import ArmSimulator
 import pytest
 from reference_step import ReferenceStepSimulator
 
@@ -90,7 +90,7 @@ def _script(sim):
     return held, np.array(trace)
 
 
-@pytest.mark.parametrize('contiguous', [True, False])
+@pytest.mark.parametrize('contiguous', [True, pytest.param(False, marks=pytest.mark.slow)])
 def test_step_is_the_reference_step_bit_for_bit(px100, contiguous):
     """Same commands, same scene: every state of every step identical to the reference."""
     scene = load_scene('pick_place', px100)

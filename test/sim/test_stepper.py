@@ -1,8 +1,8 @@
 """The sim_driver's time keeping (Stepper) on a real ArmSimulator, with clocks given (no ROS)."""
 import math
 
-from px100_control.control.simulator import ArmSimulator
 from px100_control.models.registry import load_robot
+from px100_control.sim.simulator import ArmSimulator
 from px100_control.sim.stepper import MAX_CHUNK, MAX_PHYSICS_LOAD, Stepper
 import pytest
 

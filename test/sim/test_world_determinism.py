@@ -10,11 +10,11 @@ from fresh simulators must end with bit-identical object poses; the script reall
 import math
 
 import numpy as np
-from px100_control.control.simulator import ArmSimulator, SimConfig
 from px100_control.control.trajectory import minimum_jerk_scaling
 from px100_control.kinematics.analytic.px100 import ik_xyz_pitch
 from px100_control.models.registry import load_robot
 from px100_control.sim.scene import load_scene
+from px100_control.sim.simulator import ArmSimulator, SimConfig
 import pytest
 
 ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']

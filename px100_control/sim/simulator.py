@@ -6,24 +6,25 @@ control period ``dt = 1 / control_rate`` per :meth:`ArmSimulator.step`; it owns 
 is what you step). Each step, for every arm joint:
 
 1. control law by the joint's mode (:meth:`ArmSimulator.set_mode`): 'position' = PID
-   (:mod:`.pid`) on the held setpoint (default), 'velocity' = PI on velocity, 'torque' = the
-   commanded joint torque [N*m] (Dynamixel current control), 'duty' = the commanded PWM duty;
-2. servo (:mod:`.actuator`): torque command -> PWM duty (saturated), drive torque
-   ``stall * duty`` plus back-EMF damping while torque is on (torque mode: the commanded
+   (:mod:`px100_control.control.pid`) on the held setpoint (default), 'velocity' = PI on
+   velocity, 'torque' = the commanded joint torque [N*m] (Dynamixel current control), 'duty' =
+   the commanded PWM duty;
+2. servo (:mod:`px100_control.control.actuator`): torque command -> PWM duty (saturated), drive
+   torque ``stall * duty`` plus back-EMF damping while torque is on (torque mode: the commanded
    torque within what the supply voltage allows at that speed); torque off -> the motor coasts;
-3. plant: MuJoCo (:mod:`px100_control.sim.mjcf`, the model built from the robot's URDF) applies
+3. plant: MuJoCo (:mod:`.mjcf`, the model built from the robot's URDF) applies
    the drive torques (``qfrc_applied``) and integrates the rigid-body dynamics, joint damping
    (URDF + back-EMF, implicit), Coulomb friction (URDF ``friction`` -> ``frictionloss``),
    rotor armature, joint limits (stiff hard stops) and contacts with the scene;
 4. while torque is on the speed is held within the joint's velocity limit (the servo's
    Velocity_Limit).
 
-The gripper is servo-driven through its linkage (:mod:`.gripper`): the left finger slide is the
-MuJoCo degree of freedom (the right one follows through a stiff equality), the horn angle
-theta [rad] follows from the finger position; the horn torque u [N*m] of its PID (or the
-commanded effort) drives each finger with ``u / (2 d'(theta))`` [N], and the horn's armature,
-back-EMF damping and friction are reflected onto the fingers by ``d'(theta)``. Objects are
-moved only by contact: the finger pads squeeze them with friction (never attached).
+The gripper is servo-driven through its linkage (:mod:`px100_control.control.gripper`): the
+left finger slide is the MuJoCo degree of freedom (the right one follows through a stiff
+equality), the horn angle theta [rad] follows from the finger position; the horn torque u [N*m]
+of its PID (or the commanded effort) drives each finger with ``u / (2 d'(theta))`` [N], and the
+horn's armature, back-EMF damping and friction are reflected onto the fingers by ``d'(theta)``.
+Objects are moved only by contact: the finger pads squeeze them with friction (never attached).
 
 Scene API (see :mod:`px100_control.sim`): :meth:`~ArmSimulator.objects`,
 :meth:`~ArmSimulator.object_poses`, :meth:`~ArmSimulator.held_object`,
