@@ -1,5 +1,5 @@
 """
-Benchmark of one IK call as another process makes it: the ``compute_ik`` service beside the topic pair.
+One IK call as another process makes it: the ``compute_ik`` service beside the topic pair.
 
 The server runs as its own process, first the ik_service alone (``python -m
 px100_control.ros.ik_service_node``), then the whole ``bringup`` (sim_driver, ik_service,
@@ -34,14 +34,14 @@ import tempfile
 import threading
 import time
 
+from bench_ik_service import solution_id, status_id  # (also puts ROOT on the path)
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from bench_ik_service import solution_id, status_id  # noqa: E402 - after the path fix
-from px100_control.ros.common import make_executor  # noqa: E402
+from px100_control.ros.common import make_executor  # noqa: E402 - after the path fix
 
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'ik_call.json')
 #: calls of one form in a row before switching to the other

@@ -377,7 +377,7 @@ RECORDER = NodeSchema('recorder', COMMON)
 REPLAYER = NodeSchema('replayer', COMMON)
 STATE_PUBLISHER = NodeSchema('robot_state_publisher', (
     COMMON[1],
-    ParamSpec('publish_frequency', 'double', 20.0, 'largest rate of the joints\' /tf, in '
+    ParamSpec('publish_frequency', 'double', 20.0, 'largest rate of the joints on /tf, in '
               'joint_states stamps [Hz] (as robot_state_publisher; 0: every joint_states)',
               low=0.0),
 ))

@@ -12,8 +12,8 @@ robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to
 import sys
 from typing import List
 
-from px100_control.parameters import (IK_SERVICE, SIM_DRIVER, STATE_PUBLISHER, TRAJECTORY_SERVER,
-                                     VIEWER)
+from px100_control.parameters import (IK_SERVICE, SIM_DRIVER, STATE_PUBLISHER,
+                                      TRAJECTORY_SERVER, VIEWER)
 from px100_control.ros.common import parse_cli, run_nodes
 from px100_control.ros.ik_service_node import IkServiceNode
 from px100_control.ros.sim_driver_node import SimDriverNode

@@ -1,4 +1,4 @@
-"""LiveTf (the live robot_state_publisher's logic, no ROS): static/moving split, rate, bad input."""
+"""LiveTf (the live robot_state_publisher's logic, no ROS): static/moving, rate, bad input."""
 import math
 
 from px100_control.bag.tf_live import LiveTf

@@ -178,7 +178,7 @@ def test_object_frames_equal_world_markers(sim):
             if _ns(msg.transforms[0].header.stamp) == stamp:
                 return msg
         return None
-    assert wait_for(frames_of_stamp, 10.0), 'no object frames with the markers\' stamp'
+    assert wait_for(frames_of_stamp, 10.0), "no object frames with the markers' stamp"
     got = {tr.child_frame_id: tr for tr in frames_of_stamp().transforms}
     assert set(got) == {f'px100/objects/{m.text}' for m in objects}
     for m in objects:
@@ -209,7 +209,7 @@ class Source(Node):
 
 @pytest.fixture(scope='module')
 def own(ros_ctx, spinner, processes):
-    """A state_publisher in /tfx (publish_frequency 0: every joint state) fed by the test."""
+    """Start a state_publisher in /tfx (publish_frequency 0: every joint state) fed here."""
     listener = spinner.add(TfListener('test_tf_listener_x', '/tfx', context=ros_ctx))
     source = spinner.add(Source('/tfx', context=ros_ctx))
     proc = NodeProcess('state_publisher', ['--ros-args', '-r', '__ns:=/tfx', '-p',
