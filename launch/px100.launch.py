@@ -20,7 +20,7 @@ PACKAGE = 'px100_control'
 
 
 def generate_launch_description():
-    """Return the launch description (arguments, the three nodes, recorder, viewer)."""
+    """Return the launch description (arguments, the four nodes, recorder, viewer)."""
     robot_model = LaunchConfiguration('robot_model')
     robot_name = LaunchConfiguration('robot_name')
     params_file = LaunchConfiguration('params_file')

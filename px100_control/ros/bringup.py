@@ -2,7 +2,7 @@
 bringup: sim_driver, ik_service, trajectory_server and robot_state_publisher in one process.
 
 For machines without ``ros2 launch``: ``ros2 run px100_control bringup --ros-args -p
-robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all three nodes
+robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all four nodes
 (a params file addresses each by its node name; robot_state_publisher is the
 ``state_publisher`` executable's node: live /tf); they spin in one executor
 (:func:`px100_control.ros.common.make_executor`: rclpy's EventsExecutor by default).
