@@ -240,3 +240,33 @@ def test_introspection_events_carry_request_and_response(fresh):
     assert received[-1].request[0].target.pose.position.x == pytest.approx(0.19)
     assert sent[-1].response[0].success
     assert list(sent[-1].response[0].solution.position) == list(res.solution.position)
+
+
+def test_random_bad_and_good_requests_are_all_answered(fresh):
+    """300 random requests (NaN, inf, huge, tiny quaternions, odd seeds, frames, modes)."""
+    env = fresh
+    rng = np.random.default_rng(26)
+    specials = [math.nan, math.inf, -math.inf, 1e308, -1e-320, 0.0, 1e-200]
+    answers = {True: 0, False: 0}
+    goods = [matrix_to_pose(MODEL.fk(q)) for q in MODEL.random_configurations(300, rng)]
+    for k, good in enumerate(goods):
+        p, o = good.position, good.orientation
+        vals = [p.x, p.y, p.z, o.x, o.y, o.z, o.w]
+        for i in rng.choice(7, rng.choice([0, 0, 1, 2]), replace=False):     # corrupt some
+            vals[i] = specials[rng.integers(len(specials))]
+        seed = [[], [0.1, -0.5, 0.4, 0.2], [0.1] * int(rng.choice([3, 5])),
+                [0.1, specials[rng.integers(3)], 0.0, 0.0]][rng.choice(4, p=[.4, .4, .1, .1])]
+        res = env.client.compute_ik(
+            pose=_pose(*vals[:3], q=tuple(vals[3:])), seed=seed,
+            mode=str(rng.choice(['', 'pitch', 'strict', 'sideways'], p=[.4, .3, .2, .1])),
+            frame_id=str(rng.choice(['', 'base_link', 'px100/base_link', 'world'],
+                                    p=[.4, .2, .3, .1])))
+        assert res.message and '\n' not in res.message, (k, res.message)
+        answers[res.success] += 1
+        if res.success:
+            q = np.array(res.solution.position)
+            assert q.shape == (4,) and np.all(np.isfinite(q)) and MODEL.within_limits(q)
+        else:
+            assert len(res.solution.position) == 0
+    assert answers[True] >= 10 and answers[False] >= 10, answers
+    assert env.server.alive(), env.server.output()
