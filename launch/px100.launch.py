@@ -1,6 +1,5 @@
 """
-Launch the simulated arm: sim_driver, ik_service, trajectory_server, state_publisher (+ recorder,
-viewer).
+Launch the simulated arm: sim_driver, ik_service, trajectory_server, state_publisher (+ extras).
 
 ``ros2 launch px100_control px100.launch.py robot_model:=px100 robot_name:=arm1 record:=true``
 
