@@ -11,6 +11,7 @@ EXECUTABLES = {
     'sim_driver': 'px100_control.ros.sim_driver_node:main',
     'ik_service': 'px100_control.ros.ik_service_node:main',
     'trajectory_server': 'px100_control.ros.trajectory_server_node:main',
+    'state_publisher': 'px100_control.ros.state_publisher_node:main',
     'bringup': 'px100_control.ros.bringup:main',
     'record': 'px100_control.ros.recorder_node:main',
     'replay': 'px100_control.ros.replayer_node:main',

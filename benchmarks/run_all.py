@@ -22,7 +22,7 @@ import bound
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ORDER = ['kinematics', 'kinematics_myarm300pi', 'robots', 'sim_driver', 'physics', 'ik_service',
-         'recorder', 'client', 'robustness']
+         'ik_call', 'recorder', 'client', 'robustness']
 
 
 def _machine() -> str:

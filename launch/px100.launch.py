@@ -1,5 +1,5 @@
 """
-Launch the simulated arm: sim_driver, ik_service, trajectory_server (+ recorder, viewer).
+Launch the simulated arm: sim_driver, ik_service, trajectory_server, state_publisher (+ extras).
 
 ``ros2 launch px100_control px100.launch.py robot_model:=px100 robot_name:=arm1 record:=true``
 
@@ -19,7 +19,7 @@ PACKAGE = 'px100_control'
 
 
 def generate_launch_description():
-    """Return the launch description (arguments, the three nodes, recorder, viewer)."""
+    """Return the launch description (arguments, the four nodes, recorder, viewer)."""
     robot_model = LaunchConfiguration('robot_model')
     robot_name = LaunchConfiguration('robot_name')
     params_file = LaunchConfiguration('params_file')
@@ -44,7 +44,7 @@ def generate_launch_description():
                                 'use_sim_time': use_sim_time}]
     nodes = [Node(package=PACKAGE, executable=exe, namespace=robot_name,
                   parameters=parameters, output='screen')
-             for exe in ('sim_driver', 'ik_service', 'trajectory_server')]
+             for exe in ('sim_driver', 'ik_service', 'trajectory_server', 'state_publisher')]
     nodes.append(Node(package=PACKAGE, executable='record', namespace=robot_name,
                       parameters=parameters, output='screen',
                       condition=IfCondition(LaunchConfiguration('record'))))

@@ -375,10 +375,16 @@ VIEWER = NodeSchema('viewer', COMMON + (
 ))
 RECORDER = NodeSchema('recorder', COMMON)
 REPLAYER = NodeSchema('replayer', COMMON)
+STATE_PUBLISHER = NodeSchema('robot_state_publisher', (
+    COMMON[1],
+    ParamSpec('publish_frequency', 'double', 20.0, 'largest rate of the joints on /tf, in '
+              'joint_states stamps [Hz] (as robot_state_publisher; 0: every joint_states)',
+              low=0.0),
+))
 
 #: schema of every node, by node name
 SCHEMAS = {s.node: s for s in (SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER, RECORDER,
-                               REPLAYER)}
+                               REPLAYER, STATE_PUBLISHER)}
 
 
 def register(schema: NodeSchema) -> NodeSchema:

@@ -34,13 +34,14 @@ WAYS = ('sigint', 'sigint_twice', 'sigterm')
 EXECUTORS = ('events', 'single', 'multi')
 #: what must never appear in a stopped node's output
 BAD_OUTPUT = ('[FATAL]', 'terminate called', 'Traceback', 'Segmentation fault', 'Aborted')
-CORE = ['sim_driver', 'ik_service', 'trajectory_server']
+CORE = ['sim_driver', 'ik_service', 'trajectory_server', 'robot_state_publisher']
 #: every long-running executable and the forms of one that run more: (executable, its own
 #: arguments, what shows it is up: the node names it puts in the graph, or a line it prints)
 EXECUTABLES = {
     'sim_driver': ('sim_driver', [], ['sim_driver']),
     'ik_service': ('ik_service', [], ['ik_service']),
     'trajectory_server': ('trajectory_server', [], ['trajectory_server']),
+    'state_publisher': ('state_publisher', [], ['robot_state_publisher']),
     'bringup': ('bringup', [], CORE),
     'bringup --viewer': ('bringup', ['--viewer'], CORE + ['viewer']),
     'record': ('record', ['-a', '--flush-period', '0.2'], ['recorder']),

@@ -15,7 +15,9 @@ HELP_SCHEMAS = {
     'sim_driver': [ps.SIM_DRIVER], 'ik_service': [ps.IK_SERVICE],
     'trajectory_server': [ps.TRAJECTORY_SERVER], 'record': [ps.RECORDER],
     'replay': [ps.REPLAYER], 'viewer': [ps.VIEWER],
-    'bringup': [ps.SIM_DRIVER, ps.IK_SERVICE, ps.TRAJECTORY_SERVER, ps.VIEWER],
+    'bringup': [ps.SIM_DRIVER, ps.IK_SERVICE, ps.TRAJECTORY_SERVER, ps.STATE_PUBLISHER,
+                ps.VIEWER],
+    'state_publisher': [ps.STATE_PUBLISHER],
     'inspect': [], 'bag_reindex': [],
 }
 

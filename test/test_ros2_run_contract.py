@@ -6,8 +6,8 @@ import pytest
 import yaml
 
 # Every executable of docs/ros_interfaces.md.
-CONTRACT_EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'bringup', 'record',
-                        'replay', 'inspect', 'viewer']
+CONTRACT_EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'state_publisher',
+                        'bringup', 'record', 'replay', 'inspect', 'viewer']
 
 
 def test_package_is_in_the_ament_index():

@@ -3,18 +3,22 @@ The /tf tree of an arm from its joint states, through its URDF, as tf2_msgs/msg/
 
 :class:`TfTree` parses a URDF (yourdfpy, no meshes) and returns, for joint positions by name,
 one transform per URDF joint (parent link -> child link: origin times the joint motion; mimic
-joints follow their master; joints without a value sit at 0). Frame names are the URDF link
-names with ``frame_prefix`` in front (``'px100/'`` for an unprefixed URDF; ``''`` when the URDF's
-links already carry the robot namespace, as the published robot_description does). The
-TFMessage is serialized by ``wire.cdr.tf_message`` (tf2_msgs need not be installed).
+joints follow their master; joints without a value sit at 0), split for a live publisher into
+the fixed joints (``/tf_static``) and the movable ones that have a value (``/tf``). Frame names
+are the URDF link names with ``frame_prefix`` in front (``'px100/'`` for an unprefixed URDF;
+``''`` when the URDF's links already carry the robot namespace, as the published
+robot_description does: :func:`description_tree` decides). The recorder writes its TFMessage
+as CDR bytes (``wire.cdr.tf_message``, tf2_msgs need not be installed); the live
+robot_state_publisher (``ros.state_publisher_node``) publishes the same entries.
 Units: m, rad; stamps in integer ns.
 """
 from dataclasses import dataclass
 import math
 from typing import Dict, List, Mapping, Optional, Tuple
+import xml.etree.ElementTree as ET
 
 import numpy as np
-from px100_control.errors import RobotModelError
+from px100_control.errors import Px100Error, RobotModelError
 from px100_control.kinematics.rotations import matrix_to_quaternion
 from px100_control.models.urdf_chain import load_urdf
 from px100_control.wire.cdr import tf_message
@@ -95,17 +99,21 @@ class TfTree:
         """Return the tf frame name of a link."""
         return self.frame_prefix + link
 
-    def joint_values(self, positions: Mapping[str, float]) -> Dict[str, float]:
+    def joint_values(self, positions: Mapping[str, float], missing: Optional[float] = 0.0
+                     ) -> Dict[str, Optional[float]]:
         """
-        Return the value of every movable joint [rad or m] (mimics resolved, missing ones 0).
+        Return the value of every movable joint [rad or m] (mimics resolved).
 
-        A joint is looked up by its URDF name, then by the name without a namespace prefix.
+        A joint is looked up by its URDF name, then by the name without a namespace prefix; a
+        joint without a finite value (nor a master with one) gets ``missing``.
         """
         def lookup(name):
             if name in positions:
-                return float(positions[name])
-            short = name.rsplit('/', 1)[-1]
-            return float(positions[short]) if short in positions else None
+                v = float(positions[name])
+            else:
+                short = name.rsplit('/', 1)[-1]
+                v = float(positions[short]) if short in positions else None
+            return v if v is None or math.isfinite(v) else None
 
         values = {}
         for j in self.joints:
@@ -115,9 +123,10 @@ class TfTree:
             if v is None and j.mimic is not None:
                 master = lookup(j.mimic[0])
                 if master is None:
-                    master = values.get(j.mimic[0], 0.0)
-                v = j.mimic[1] * master + j.mimic[2]
-            values[j.name] = 0.0 if v is None or not np.isfinite(v) else v
+                    master = values.get(j.mimic[0])
+                if master is not None:
+                    v = j.mimic[1] * master + j.mimic[2]
+            values[j.name] = missing if v is None else v
         return values
 
     def joint_transforms(self, positions: Mapping[str, float]
@@ -146,19 +155,36 @@ class TfTree:
         directly).
         """
         values = self.joint_values(positions)
-        out = []
-        for j, parent, child, t0, q0, R0 in self._entries:
-            if j.kind in ('revolute', 'continuous'):
-                half = 0.5 * values[j.name]
-                s = math.sin(half)
-                q = _qmul(q0, (j.axis[0] * s, j.axis[1] * s, j.axis[2] * s, math.cos(half)))
-                out.append((parent, child, t0, q))
-            elif j.kind == 'prismatic':
-                d = R0 @ (j.axis * values[j.name])
-                out.append((parent, child, (t0[0] + d[0], t0[1] + d[1], t0[2] + d[2]), q0))
-            else:
-                out.append((parent, child, t0, q0))
-        return out
+        return [self._entry(e, values.get(e[0].name, 0.0)) for e in self._entries]
+
+    def static_entries(self) -> List[tuple]:
+        """Return the :meth:`tf_entries` of the fixed joints (``/tf_static``)."""
+        return [self._entry(e, 0.0) for e in self._entries if e[0].kind == 'fixed']
+
+    def moving_entries(self, positions: Mapping[str, float]) -> List[tuple]:
+        """
+        Return the :meth:`tf_entries` of the movable joints that have a finite value.
+
+        As robot_state_publisher: a joint absent from ``positions`` (and a mimic joint whose
+        master is absent) gets no transform, rather than one at 0.
+        """
+        values = self.joint_values(positions, missing=None)
+        return [self._entry(e, values[e[0].name]) for e in self._entries
+                if values.get(e[0].name) is not None]
+
+    @staticmethod
+    def _entry(entry, value: float) -> tuple:
+        """Return the /tf entry of one joint at ``value`` [rad or m]."""
+        j, parent, child, t0, q0, R0 = entry
+        if j.kind in ('revolute', 'continuous'):
+            half = 0.5 * value
+            s = math.sin(half)
+            return parent, child, t0, _qmul(q0, (j.axis[0] * s, j.axis[1] * s, j.axis[2] * s,
+                                                 math.cos(half)))
+        if j.kind == 'prismatic':
+            d = R0 @ (j.axis * value)
+            return parent, child, (t0[0] + d[0], t0[1] + d[1], t0[2] + d[2]), q0
+        return parent, child, t0, q0
 
     def link_poses(self, positions: Mapping[str, float]) -> Dict[str, np.ndarray]:
         """Return {link name: (4, 4) pose in the root link frame}."""
@@ -180,6 +206,32 @@ def _qmul(a, b):
             aw * by - ax * bz + ay * bw + az * bx,
             aw * bz + ax * by - ay * bx + az * bw,
             aw * bw - ax * bx - ay * by - az * bz)
+
+
+def description_tree(urdf_xml: str, robot_name: str) -> TfTree:
+    """
+    Return the TfTree of a published robot_description, its frames ``<robot_name>/<link>``.
+
+    Links already named ``<robot_name>/...`` (as sim_driver publishes them) are kept; an
+    unprefixed URDF gets the prefix.
+
+    :raises RobotModelError: not a URDF, not a tree, or no movable joint; the reason in one line
+    """
+    try:
+        root = ET.fromstring(urdf_xml)
+    except (ET.ParseError, TypeError) as exc:
+        raise RobotModelError(f'not valid XML ({" ".join(str(exc).split())})') from None
+    if root.tag != 'robot':
+        raise RobotModelError(f'the root element is <{root.tag}>, not <robot>')
+    try:
+        tree = TfTree(urdf_xml, '')
+        if not tree.movable:
+            raise RobotModelError('it has no movable joint')
+        if robot_name and not tree.root.startswith(robot_name + '/'):
+            tree = TfTree(urdf_xml, robot_name + '/')
+    except (Px100Error, ValueError, TypeError, AttributeError) as exc:
+        raise RobotModelError(' '.join(str(exc).split()) or type(exc).__name__) from None
+    return tree
 
 
 def encode_tf_message(transforms: List[tuple], stamp_ns: int) -> bytes:

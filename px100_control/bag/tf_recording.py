@@ -20,7 +20,7 @@ import time
 from typing import Callable, List, Optional, Tuple
 
 from px100_control.bag.recording import DESCRIPTION_QOS, TF_QOS, TF_TOPIC
-from px100_control.bag.tf import encode_tf_message, TF_TYPE, TfTree
+from px100_control.bag.tf import description_tree, encode_tf_message, TF_TYPE, TfTree
 from px100_control.bag.world import object_tf_entries, WorldMarker
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError, Px100Error
@@ -120,12 +120,8 @@ class TfRecording:
     def use_description(self, urdf: str) -> None:
         """Build the /tf tree from a published robot_description."""
         try:
-            tree = TfTree(urdf, '')
-            if not tree.movable:
-                raise ValueError('it has no movable joint')
-            if self.robot_name and not tree.root.startswith(self.robot_name + '/'):
-                tree = TfTree(urdf, self.robot_name + '/')
-        except (Px100Error, ValueError, TypeError) as exc:
+            tree = description_tree(urdf, self.robot_name)
+        except Px100Error as exc:
             self._log('warning', f'robot_description is not a usable URDF ({exc}); '
                                  '/tf uses the robot model')
             return

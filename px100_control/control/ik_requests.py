@@ -2,8 +2,9 @@
 The ik_service's answers on plain values (no ROS): parameter checks, status texts, paths.
 
 A request's reply is an IkResult turned into a message and ``values`` ((key, text) pairs of
-``ik/status``); a path request's reply is a joint path timed for the trajectory server. Units:
-positions [m], angles [rad], times [s], speeds [rad/s] (m/s for prismatic joints).
+``ik/status``), the same for the topic pair and the ``compute_ik`` service (:func:`ik_answer`);
+a path request's reply is a joint path timed for the trajectory server. Units: positions [m],
+angles [rad], times [s], speeds [rad/s] (m/s for prismatic joints).
 """
 from dataclasses import dataclass, field
 import math
@@ -11,7 +12,8 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 from px100_control.control.path_timing import joint_speed_bounds, path_times
 from px100_control.errors import InvalidInputError
-from px100_control.kinematics.solve import METHODS, solve_path
+from px100_control.kinematics.ik_types import IkResult
+from px100_control.kinematics.solve import METHODS, solve_ik, solve_path
 from px100_control.parameters import bound_error, IK_SERVICE
 
 #: orientation_mode parameter value -> solve_ik mode
@@ -36,6 +38,70 @@ def parameter_error(name: str, value, dof: int) -> Optional[str]:
         if len(vals) != dof or not all(math.isfinite(x) for x in vals):
             return f'nominal_pose needs {dof} finite values, got {vals}'
     return None
+
+
+def request_mode(orientation_mode: str, default: str) -> str:
+    """
+    Return the solve_ik mode of a service request's ``orientation_mode`` ('' = ``default``).
+
+    :raises InvalidInputError: not 'pitch', 'strict' or ''
+    """
+    if orientation_mode == '':
+        return default
+    if orientation_mode not in MODES:
+        raise InvalidInputError(f"orientation_mode must be 'pitch', 'strict' or '' (the "
+                                f"node's parameter), got {orientation_mode!r}")
+    return MODES[orientation_mode]
+
+
+def request_seed(seed: Sequence[float], dof: int, fallback):
+    """
+    Return a service request's seed [rad] (one per arm joint), ``fallback`` when it is empty.
+
+    :raises InvalidInputError: a length other than ``dof`` or a non-finite value
+    """
+    if len(seed) == 0:
+        return fallback
+    values = [float(x) for x in seed]
+    if len(values) != dof:
+        raise InvalidInputError(f'seed needs {dof} values (one per arm joint) or none, got '
+                                f'{len(values)}')
+    if not all(math.isfinite(x) for x in values):
+        raise InvalidInputError(f'seed must be finite, got {values}')
+    return values
+
+
+@dataclass
+class IkAnswer:
+    """One IK request's answer: the solution [rad] (None on failure), its text and values."""
+
+    ok: bool
+    q: Optional[List[float]]
+    message: str
+    values: List[Tuple[str, str]]
+    result: Optional[IkResult] = None
+
+
+def ik_answer(model, T, mode: str, seed, nominal, solver_kwargs: dict,
+              orientation_tol: float) -> IkAnswer:
+    """
+    Solve one request with ``solve_ik`` and word its answer as ``ik/status`` does.
+
+    :param T: (4, 4) target of the end effector in the base frame [m]
+    :param mode: solve_ik mode ('pitch', 'full' or 'position')
+    :param seed: the solution closest to it is returned [rad]
+    :return: refused input ('invalid request: ...'), no solution (solve_ik's reason) or
+        'solved' (naming dropped roll/yaw above ``orientation_tol`` [rad])
+    """
+    try:
+        res = solve_ik(model, T, mode=mode, q_seed=seed, q_nominal=nominal, **solver_kwargs)
+    except InvalidInputError as exc:
+        return IkAnswer(False, None, f'invalid request: {exc}', [])
+    values = result_values(res, mode)
+    if res.success:
+        return IkAnswer(True, [float(x) for x in res.q],
+                        solved_message(res, mode, orientation_tol, model.dof), values, res)
+    return IkAnswer(False, None, res.reason or 'no solution', values, res)
 
 
 def fmt(x: float) -> str:

@@ -1,9 +1,10 @@
 """
-bringup: sim_driver, ik_service and trajectory_server in one process.
+bringup: sim_driver, ik_service, trajectory_server and robot_state_publisher in one process.
 
 For machines without ``ros2 launch``: ``ros2 run px100_control bringup --ros-args -p
-robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all three nodes
-(a params file addresses each by its node name); they spin in one executor
+robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all four nodes
+(a params file addresses each by its node name; robot_state_publisher is the
+``state_publisher`` executable's node: live /tf); they spin in one executor
 (:func:`px100_control.ros.common.make_executor`: rclpy's EventsExecutor by default).
 ``--viewer`` adds the browser viewer node (:mod:`px100_control.ros.viewer_node`, parameters
 ``port``, ``host``, ``read_only``) to the same process.
@@ -11,16 +12,18 @@ robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to
 import sys
 from typing import List
 
-from px100_control.parameters import IK_SERVICE, SIM_DRIVER, TRAJECTORY_SERVER, VIEWER
+from px100_control.parameters import (IK_SERVICE, SIM_DRIVER, STATE_PUBLISHER,
+                                      TRAJECTORY_SERVER, VIEWER)
 from px100_control.ros.common import parse_cli, run_nodes
 from px100_control.ros.ik_service_node import IkServiceNode
 from px100_control.ros.sim_driver_node import SimDriverNode
+from px100_control.ros.state_publisher_node import StatePublisherNode
 from px100_control.ros.trajectory_server_node import TrajectoryServerNode
 
 
 def create_nodes(viewer: bool = False, **node_kwargs) -> List:
-    """Return [SimDriverNode, IkServiceNode, TrajectoryServerNode] (+ ViewerNode if viewer)."""
-    classes = [SimDriverNode, IkServiceNode, TrajectoryServerNode]
+    """Return the sim_driver, ik_service, trajectory_server, robot_state_publisher (+ viewer)."""
+    classes = [SimDriverNode, IkServiceNode, TrajectoryServerNode, StatePublisherNode]
     if viewer:
         from px100_control.ros.viewer_node import ViewerNode  # optional: viser, loaded when asked
         classes.append(ViewerNode)
@@ -42,10 +45,11 @@ def _add_arguments(parser) -> None:
 
 
 def main(args=None) -> int:
-    """Run the three nodes until SIGINT/SIGTERM (``ros2 run px100_control bringup``)."""
-    options, argv = parse_cli('Run sim_driver, ik_service and trajectory_server of px100_control '
-                              'in one process.', args, _add_arguments,
-                              schemas=(SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER))
+    """Run the four nodes until SIGINT/SIGTERM (``ros2 run px100_control bringup``)."""
+    options, argv = parse_cli('Run sim_driver, ik_service, trajectory_server and '
+                              'robot_state_publisher of px100_control in one process.', args,
+                              _add_arguments, schemas=(SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER,
+                                                       STATE_PUBLISHER, VIEWER))
     return run_nodes(lambda: create_nodes(viewer=options.viewer), argv)
 
 

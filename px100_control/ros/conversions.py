@@ -48,9 +48,13 @@ def pose_values_to_matrix(values, *, allow_zero_quaternion: bool = False
     T = np.eye(4)
     T[:3, 3] = vals[:3]
     if norm == 0.0:
-        if allow_zero_quaternion:
-            return T, True
-        raise InvalidInputError('orientation is an all-zero quaternion')
+        if not np.any(q):
+            if allow_zero_quaternion:
+                return T, True
+            raise InvalidInputError('orientation is an all-zero quaternion')
+        # non-zero components whose squares underflow: not a rotation, nor "orientation free"
+        raise InvalidInputError(f'orientation quaternion {q.tolist()} has norm 0 (underflow), '
+                                'not a rotation')
     if abs(norm - 1.0) > 1e-3 and norm < 0.5:
         raise InvalidInputError(f'orientation quaternion has norm {norm:.6g}, not a rotation')
     q = q / norm

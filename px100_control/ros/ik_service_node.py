@@ -23,6 +23,9 @@ Topics (docs/ros_interfaces.md, relative to ``/<robot_name>``):
   that fails stops the path: the reply then holds the points solved before it, and the
   ik/status (ERROR, same id) says which pose (value ``failed_index``) and why.
 
+Services ``compute_ik`` and ``compute_cartesian_path`` (px100_control_msgs) answer the same
+requests with the same checks and texts: :mod:`px100_control.ros.ik_services`.
+
 Parameters: ``orientation_mode`` 'pitch' (solve position + pitch, report the roll/yaw a
 4/5-DOF arm cannot reach; a residual above ``orientation_tolerance`` [rad] is named in the
 message) or 'strict' (the whole pose or nothing); ``method`` ('auto' analytic where the robot
@@ -43,16 +46,16 @@ import threading
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseArray, PoseStamped
 import numpy as np
-from px100_control.control.ik_requests import (MODES, parameter_error, path_targets, plan_path,
-                                               result_values, solved_message)
+from px100_control.control.ik_requests import (ik_answer, MODES, parameter_error, path_targets,
+                                               plan_path)
 from px100_control.errors import InvalidInputError
-from px100_control.kinematics.solve import solve_ik
 from px100_control.parameters import IK_SERVICE
 from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_name,
                                       robot_node_kwargs, robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix, stamp_id
 from px100_control.ros.ik_messages import IkReplies, parse_pose_stamped
+from px100_control.ros.ik_services import IkServices, pose_values
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.wire.private_api import take_serialized
 from rcl_interfaces.msg import SetParametersResult
@@ -71,12 +74,6 @@ REQUEST_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                          durability=DurabilityPolicy.VOLATILE)
 
 __all__ = ['IkServiceNode', 'main', 'parse_pose_stamped', 'REQUEST_QOS']
-
-
-def _pose_values(pose) -> tuple:
-    """Return (x, y, z, qx, qy, qz, qw) of a geometry_msgs/Pose."""
-    p, o = pose.position, pose.orientation
-    return p.x, p.y, p.z, o.x, o.y, o.z, o.w
 
 
 class IkServiceNode(Node):
@@ -120,6 +117,7 @@ class IkServiceNode(Node):
             raw=True)
         self.create_subscription(PoseArray, robot_topic(self, 'ik/path_request'),
                                  self._on_path_request, 100)
+        self._ik_services = IkServices(self)
         self.get_logger().info(
             f'ik_service ready: {self.model.name} ({self.model.dof} joints, analytic '
             f'{self.model.analytic_ik or "none"}), orientation_mode {self._mode_param}')
@@ -201,24 +199,16 @@ class IkServiceNode(Node):
         return batch
 
     def _solve_one(self, stamp, T, mode: str, seed) -> None:
-        """Solve one request with solve_ik and publish its reply."""
+        """Solve one request with solve_ik (``ik_answer``) and publish its reply."""
         try:
-            res = solve_ik(self.model, T, mode=mode, q_seed=seed, q_nominal=self._nominal,
-                           **self._kwargs)
-        except InvalidInputError as exc:
-            self._reply(stamp, None, DiagnosticStatus.ERROR, f'invalid request: {exc}', ())
-            return
+            ans = ik_answer(self.model, T, mode, seed, self._nominal, self._kwargs,
+                            self._orientation_tol)
         except Exception as exc:  # noqa: B902 - a request must never stop the node
             self.get_logger().error(f'ik request {stamp_id(stamp)}: internal error {exc!r}')
             self._reply(stamp, None, DiagnosticStatus.ERROR, f'internal error: {exc!r}', ())
             return
-        values = result_values(res, mode)
-        if res.success:
-            self._reply(stamp, res.q, DiagnosticStatus.OK,
-                        solved_message(res, mode, self._orientation_tol, self.model.dof), values)
-        else:
-            self._reply(stamp, None, DiagnosticStatus.ERROR, res.reason or 'no solution',
-                        values)
+        self._reply(stamp, ans.q, DiagnosticStatus.OK if ans.ok else DiagnosticStatus.ERROR,
+                    ans.message, ans.values)
 
     def _reply(self, stamp, q, level: int, message: str, values) -> None:
         """Publish the solution and the status of one request (CDR bytes or reused messages)."""
@@ -241,7 +231,7 @@ class IkServiceNode(Node):
     def _on_path_request(self, msg: PoseArray) -> None:
         reply = JointTrajectory(header=msg.header, joint_names=list(self._names))
         try:
-            targets, mode = path_targets([_pose_values(p) for p in msg.poses],
+            targets, mode = path_targets([pose_values(p) for p in msg.poses],
                                          lambda pose: self._target(msg.header.frame_id, pose))
             plan = plan_path(self.model, targets, mode, self._seed(), self._nominal,
                              self._kwargs, self.get_parameter('max_path_joint_velocity').value,

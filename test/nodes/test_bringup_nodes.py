@@ -19,12 +19,13 @@ MODEL = load_robot('px100')
 ARM = list(MODEL.joint_names)
 
 
-def test_create_nodes_builds_the_three_nodes(ros_ctx):
-    """create_nodes returns sim_driver, ik_service and trajectory_server, kwargs forwarded."""
+def test_create_nodes_builds_the_four_nodes(ros_ctx):
+    """create_nodes returns sim_driver, ik_service, trajectory_server, robot_state_publisher."""
     from px100_control.ros.bringup import create_nodes
     nodes = create_nodes(context=ros_ctx, namespace='/bringup_test')
     try:
-        assert [n.get_name() for n in nodes] == ['sim_driver', 'ik_service', 'trajectory_server']
+        assert [n.get_name() for n in nodes] == ['sim_driver', 'ik_service', 'trajectory_server',
+                                                 'robot_state_publisher']
         assert all(n.get_namespace() == '/bringup_test' for n in nodes)
     finally:
         for n in nodes:
