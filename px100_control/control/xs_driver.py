@@ -252,14 +252,15 @@ class XsDriver:
         if mode not in MODES:
             raise XsError(f"Invalid command for argument 'mode' while setting the operating "
                           f"mode for the {name} motor (modes: {', '.join(MODES)}).")
-        if profile_type not in PROFILE_TYPES:
-            raise XsError(f"profile_type must be 'time' or 'velocity', not {profile_type!r}")
         for joint in joints:
             if mode in CURRENT_MODES and not self.caps(joint).current:
                 raise XsError(f"'{joint}' ({self.servos[joint]}) has no current sensing: "
                               f"the {mode} mode does not exist on it")
             if mode == 'linear_position' and joint != self.gripper:
                 raise XsError(f"linear_position is the gripper's mode, not '{joint}''s")
+        profile_type = profile_type or 'velocity'     # xs_sdk: anything but 'time' is velocity
+        if profile_type not in PROFILE_TYPES:
+            raise XsError(f"profile_type must be 'time' or 'velocity', not {profile_type!r}")
         for value, what in ((profile_velocity, 'profile_velocity'),
                             (profile_acceleration, 'profile_acceleration')):
             if not 0 <= int(value) <= 32767:
