@@ -804,9 +804,11 @@ class ArmSimulator:
 
     def set_references(self, refs: Mapping[str, Tuple[float, float]]) -> None:
         """
-        Hold position references {joint: (q, qd)} [rad, rad/s] (qd as feed-forward), clamped
-        to the limits and unchecked otherwise: the per-step path of a profile whose command was
-        checked when it was given (joints in position mode; the gripper goes to position).
+        Hold position references {joint: (q, qd)} [rad, rad/s], qd as feed-forward.
+
+        Clamped to the limits and unchecked otherwise: the per-step path of a profile whose
+        command was checked when it was given (joints in position mode; the gripper goes to
+        position).
         """
         for name, (q, qd) in refs.items():
             if name == self.gripper_name:

@@ -255,7 +255,7 @@ class XsDriver:
         for joint in joints:
             if mode in CURRENT_MODES and not self.caps(joint).current:
                 raise XsError(f"'{joint}' ({self.servos[joint]}) has no current sensing: "
-                              f"the {mode} mode does not exist on it")
+                              f'the {mode} mode does not exist on it')
             if mode == 'linear_position' and joint != self.gripper:
                 raise XsError(f"linear_position is the gripper's mode, not '{joint}''s")
         profile_type = profile_type or 'velocity'     # xs_sdk: anything but 'time' is velocity
@@ -454,8 +454,10 @@ class XsDriver:
     def trajectory_command(self, cmd_type: str, name: str, times: Sequence[float],
                            points: Sequence[Sequence[float]], kind: str, now: float) -> None:
         """
-        Accept a JointTrajectoryCommand: each point is written at its time as a group/single
-        command in the joints' mode (:meth:`due_points`).
+        Accept a JointTrajectoryCommand (checked whole, nothing executed if refused).
+
+        Each point after the first is written at its time as a command in the joints' mode
+        (:meth:`due_points`), as xs_sdk's timers do.
 
         :param kind: 'position' or 'velocity' (which field the points carry)
         """
