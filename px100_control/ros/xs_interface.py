@@ -158,7 +158,8 @@ class XsInterface:
                 not points[0].positions else 'position'
             times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in points]
             values = [list(p.velocities if kind == 'velocity' else p.positions) for p in points]
-            self._execute([], lambda now, present: self.driver.trajectory_command(
+            joints = self.driver.resolve(msg.cmd_type, msg.name, 'executing a trajectory')
+            self._execute(joints, lambda now, present: self.driver.trajectory_command(
                 msg.cmd_type, msg.name, times, values, kind, now))
         except Px100Error as exc:
             self._refuse('commands/joint_trajectory', exc, msg.name)

@@ -38,7 +38,7 @@ class Probe:
         from rclpy.node import Node
         self.node = n = Node('xs_probe', context=ctx)
         self.lock = threading.Lock()
-        self.js, self.diag = None, []
+        self.js, self.diag, self.js_count = None, [], 0
         for attr, srv, name in SERVICES:
             setattr(self, attr, n.create_client(srv, f'{NS}/{name}'))
         self.pub_group = n.create_publisher(JointGroupCommand, f'{NS}/commands/joint_group', 10)
@@ -53,6 +53,7 @@ class Probe:
     def _js(self, msg):
         with self.lock:
             self.js = msg
+            self.js_count += 1
 
     def _diag(self, msg):
         with self.lock:
@@ -152,6 +153,28 @@ def test_joint_group_follows_the_time_profile(probe):
     assert 0.25 < frac < 0.75, frac
     assert 0.8 < arrived < 2.5, arrived
     probe.set_reg('group', 'arm', 'Profile_Velocity', 2000)
+
+
+def test_velocity_mode_then_back_to_position(probe):
+    """set_operating_modes velocity on one joint: rad/s commands; position again holds."""
+    probe.settle()
+    probe.call(probe.srv_set_op_modes, OperatingModes.Request(
+        cmd_type='single', name='waist', mode='velocity'))
+    info = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single', name='waist'))
+    assert (info.mode, info.profile_type) == ('velocity', 'velocity')
+    start = probe.position('waist')
+    t0 = time.monotonic()
+    probe.pub_single.publish(JointSingleCommand(name='waist', cmd=0.5))
+    assert wait_for(lambda: probe.position('waist') > start + 0.25, 3.0), probe.position('waist')
+    speed = (probe.position('waist') - start) / (time.monotonic() - t0)
+    probe.pub_single.publish(JointSingleCommand(name='waist', cmd=0.0))
+    assert 0.3 < speed < 0.55, speed
+    probe.call(probe.srv_set_op_modes, OperatingModes.Request(
+        cmd_type='single', name='waist', mode='position', profile_type='time',
+        profile_velocity=2000, profile_acceleration=300))
+    probe.pub_group.publish(JointGroupCommand(name='arm', cmd=[0.0, 0.0, 0.0, 0.0]))
+    probe.wait_arm([0.0] * 4)
+    assert not probe.refusals(''), probe.refusals('')
 
 
 def _interbotix_startup(probe):
@@ -281,7 +304,8 @@ def test_bad_input_is_refused_and_nothing_moves(probe, what, send, reason):
     send(probe)
     assert wait_for(lambda: len(probe.refusals(what)) > before, 5.0), probe.refusals('')
     assert reason in probe.refusals(what)[-1], probe.refusals(what)[-1]
-    time.sleep(0.3)   # a wrongly accepted move would have started by now
+    count = probe.js_count      # 30 more samples (0.3 s): a wrongly accepted move would show
+    assert wait_for(lambda: probe.js_count >= count + 30, 5.0)
     assert max(abs(a - b) for a, b in zip(probe.arm(), before_arm)) < 0.01
     info = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='group', name='arm'))
     assert info.mode == 'position' and info.num_joints == 4
