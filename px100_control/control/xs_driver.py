@@ -30,7 +30,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import GAIN_REGISTER_MAX, PWM_FULL_SCALE
-from px100_control.control.trajectory import plan_move
+from px100_control.control.trajectory import plan_move, scaling_at
 from px100_control.errors import Px100Error
 
 #: operating modes of the driver; position-like modes take positions
@@ -102,20 +102,35 @@ class JointState:
     registers: Dict[str, int] = field(default_factory=dict)
 
 
-@dataclass
 class Motion:
-    """A profiled move of one joint: from ``start`` at ``t0`` [s] (segment of plan_move)."""
+    """
+    A profiled move of one joint from ``t0`` [s]: a segment of plan_move, sampled in floats.
 
-    t0: float
-    segment: object
+    The segment's own scaling (:func:`~px100_control.control.trajectory.scaling_at`) and start
+    velocity blend, on plain floats: this runs before every physics step.
+    """
+
+    def __init__(self, t0: float, segment):
+        self.t0 = float(t0)
+        self.segment = segment
+        self.q0, self.q1 = float(segment.q0[0]), float(segment.q1[0])
+        self.v0 = float(segment.v0[0]) if segment.v0 is not None else 0.0
 
     def sample(self, now: float) -> Tuple[float, float, bool]:
-        """Return (position, velocity, done) at ``now`` [s]."""
+        """Return (position [rad], velocity [rad/s], done) at ``now`` [s]."""
+        seg = self.segment
         tl = now - self.t0
-        if tl >= self.segment.T:
-            return float(self.segment.q1[0]), 0.0, True
-        q, qd, _ = self.segment.sample(max(tl, 0.0))
-        return float(q[0]), float(qd[0]), False
+        if tl >= seg.T:
+            return self.q1, 0.0, True
+        tl = max(tl, 0.0)
+        s, sd, _ = scaling_at(seg.profile, tl, seg.T, seg.accel_time)
+        d = self.q1 - self.q0
+        q, qd = self.q0 + s * d, sd * d
+        if self.v0:
+            tau = tl / seg.T
+            q += seg.T * tau * (1.0 - tau) ** 2 * self.v0
+            qd += (1.0 - tau) * (1.0 - 3.0 * tau) * self.v0
+        return q, qd, False
 
 
 @dataclass
@@ -346,7 +361,7 @@ class XsDriver:
     def goal(self, joint: str, present: float) -> float:
         """Return the joint's goal position [rad] (its move's end, else ``present``)."""
         motion = self.motions.get(joint)
-        return float(motion.segment.q1[0]) if motion is not None else present
+        return motion.q1 if motion is not None else present
 
     # --- commands ----------------------------------------------------------------------------
     def group_command(self, name: str, cmd: Sequence[float], now: float,

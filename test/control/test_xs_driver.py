@@ -95,3 +95,17 @@ def test_robot_info_and_ticks():
     info = driver().robot_info('single', 'gripper')
     assert info.joint_names == ['left_finger'] and info.joint_state_indices == [5]
     assert rad_to_ticks(0.0) == 2048 and ticks_to_rad(3072) == pytest.approx(math.pi / 2)
+
+
+def test_motion_floats_equal_the_trajectory_segment():
+    """Motion samples its plan_move segment in floats: the same values as segment.sample."""
+    from px100_control.control.trajectory import plan_move
+    from px100_control.control.xs_driver import Motion
+    for v0 in (None, [0.7]):
+        seg = plan_move([0.2], [-0.4], 1.3, accel_time=0.4, v_start=v0).segments[0]
+        motion = Motion(5.0, seg)
+        for tl in (0.0, 0.1, 0.4, 0.65, 1.0, 1.29):
+            q, qd, done = motion.sample(5.0 + tl)
+            ref_q, ref_qd, _ = seg.sample(tl)
+            assert (q, qd) == pytest.approx((ref_q[0], ref_qd[0]), abs=1e-12) and not done
+        assert motion.sample(6.31) == (-0.4, 0.0, True)
