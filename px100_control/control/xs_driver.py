@@ -531,6 +531,36 @@ class XsDriver:
                 del self.motions[joint]
         return out
 
+    def follow_sim_modes(self, modes: Mapping[str, str]) -> List[str]:
+        """
+        Take the simulator's control modes set from outside; return the joints changed.
+
+        ``modes``: the ``operating_mode.<joint>`` parameters {joint: '' | position | velocity |
+        torque | duty}; a joint whose driver mode changes drops its move. '' and position keep a position-like mode (the gripper's '' also keeps pwm); velocity,
+        torque and duty become velocity, current and pwm. A group whose joints then share one
+        mode reports it.
+        """
+        changed = []
+        for joint, sim_mode in modes.items():
+            s = self.state.get(joint)
+            if s is None:
+                continue
+            keeps = POSITION_MODES + (('pwm',) if joint == self.gripper and not sim_mode else ())
+            if sim_mode in ('', 'position'):
+                mode = s.mode if s.mode in keeps else 'position'
+            else:
+                mode = {'velocity': 'velocity', 'torque': 'current', 'duty': 'pwm'}.get(
+                    sim_mode, s.mode)
+            if mode != s.mode:
+                s.mode = mode
+                self.stop([joint])
+                changed.append(joint)
+        for group, members in self.groups.items():
+            shared = {self.state[j].mode for j in members}
+            if changed and len(shared) == 1:
+                self.group_modes[group] = (shared.pop(), self.group_modes[group][1])
+        return changed
+
     @property
     def active(self) -> bool:
         """Return True while a profiled move or a trajectory runs."""

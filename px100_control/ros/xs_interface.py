@@ -70,6 +70,7 @@ class XsInterface:
             service.configure_introspection(node.get_clock(), qos_profile_system_default,
                                             ServiceIntrospectionState.CONTENTS)
             self.services.append(service)
+        node.add_post_set_parameters_callback(self._on_parameters)
 
     # --- helpers -------------------------------------------------------------------------------
     def _refuse(self, what: str, exc: Exception, name: str = '') -> None:
@@ -133,6 +134,17 @@ class XsInterface:
         for result in results:
             if not result.successful:
                 raise Px100Error(result.reason)
+
+    def _on_parameters(self, params) -> None:
+        """operating_mode.<joint> set from outside (ros2 param, the client): follow it."""
+        modes = {p.name[len('operating_mode.'):]: str(p.value) for p in params
+                 if p.name.startswith('operating_mode.')}
+        if modes:
+            with self.node._lock:
+                changed = self.driver.follow_sim_modes(modes)
+            for joint in changed:
+                self.node.get_logger().info(
+                    f"'{joint}': operating mode '{self.driver.state[joint].mode}' (parameter)")
 
     # --- topics --------------------------------------------------------------------------------
     def _on_group(self, msg: JointGroupCommand) -> None:

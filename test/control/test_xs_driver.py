@@ -109,3 +109,15 @@ def test_motion_floats_equal_the_trajectory_segment():
             ref_q, ref_qd, _ = seg.sample(tl)
             assert (q, qd) == pytest.approx((ref_q[0], ref_qd[0]), abs=1e-12) and not done
         assert motion.sample(6.31) == (-0.4, 0.0, True)
+
+
+def test_follows_the_simulator_modes_set_from_outside():
+    """operating_mode parameters set by ros2 param or the client: the driver reports them."""
+    d = driver()
+    assert d.follow_sim_modes({'waist': 'velocity', 'gripper': ''}) == ['waist']
+    assert d.state['waist'].mode == 'velocity' and d.state['gripper'].mode == 'pwm'
+    assert d.robot_info('group', 'arm').mode == 'position'      # members differ: kept
+    assert d.follow_sim_modes({j: 'duty' for j in d.groups['arm']}) == d.groups['arm']
+    assert d.robot_info('group', 'arm').mode == 'pwm'
+    assert d.follow_sim_modes({'waist': '', 'gripper': 'position'}) == ['waist', 'gripper']
+    assert d.state['gripper'].mode == 'position'

@@ -177,6 +177,24 @@ def test_velocity_mode_then_back_to_position(probe):
     assert not probe.refusals(''), probe.refusals('')
 
 
+def test_operating_mode_parameter_is_reported(probe):
+    """operating_mode.<joint> set as a parameter (ros2 param, the client): RobotInfo says so."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    client = probe.node.create_client(SetParameters, f'{NS}/sim_driver/set_parameters')
+
+    def set_mode(value):
+        param = Parameter(name='operating_mode.elbow', value=ParameterValue(
+            type=ParameterType.PARAMETER_STRING, string_value=value))
+        reply = probe.call(client, SetParameters.Request(parameters=[param]))
+        assert reply.results[0].successful, reply.results[0].reason
+        return probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single',
+                                                                name='elbow')).mode
+    assert set_mode('velocity') == 'velocity'
+    assert set_mode('') == 'position'
+    probe.node.destroy_client(client)
+
+
 def _interbotix_startup(probe):
     """InterbotixManipulatorXS(robot_model='px100') construction: core, arm, gripper."""
     for attr, _, _ in SERVICES:                             # core: wait for every service
