@@ -536,9 +536,9 @@ class XsDriver:
         Take the simulator's control modes set from outside; return the joints changed.
 
         ``modes``: the ``operating_mode.<joint>`` parameters {joint: '' | position | velocity |
-        torque | duty}; a joint whose driver mode changes drops its move. '' and position keep a position-like mode (the gripper's '' also keeps pwm); velocity,
-        torque and duty become velocity, current and pwm. A group whose joints then share one
-        mode reports it.
+        torque | duty}; a joint whose driver mode changes drops its move. '' and position keep
+        a position-like mode (the gripper's '' also keeps pwm); velocity, torque and duty become
+        velocity, current and pwm. A group whose joints then share one mode reports it.
         """
         changed = []
         for joint, sim_mode in modes.items():

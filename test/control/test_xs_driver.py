@@ -117,7 +117,7 @@ def test_follows_the_simulator_modes_set_from_outside():
     assert d.follow_sim_modes({'waist': 'velocity', 'gripper': ''}) == ['waist']
     assert d.state['waist'].mode == 'velocity' and d.state['gripper'].mode == 'pwm'
     assert d.robot_info('group', 'arm').mode == 'position'      # members differ: kept
-    assert d.follow_sim_modes({j: 'duty' for j in d.groups['arm']}) == d.groups['arm']
+    assert d.follow_sim_modes(dict.fromkeys(d.groups['arm'], 'duty')) == d.groups['arm']
     assert d.robot_info('group', 'arm').mode == 'pwm'
     assert d.follow_sim_modes({'waist': '', 'gripper': 'position'}) == ['waist', 'gripper']
     assert d.state['gripper'].mode == 'position'
