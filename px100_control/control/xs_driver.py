@@ -520,6 +520,8 @@ class XsDriver:
     def references(self, now: float) -> Dict[str, Tuple[float, float]]:
         """Return the profile references {joint: (q [rad], qd [rad/s])} at ``now``."""
         out = {}
+        if self.trajectory is not None and now < self.trajectory['start']:
+            self.trajectory = None          # the clock went back (a new scene): drop it
         for joint, motion in list(self.motions.items()):
             if now < motion.t0:             # the clock went back (a reset): drop the move
                 del self.motions[joint]
@@ -567,10 +569,12 @@ class XsDriver:
         return bool(self.motions) or self.trajectory is not None
 
     def stop(self, joints: Sequence[str]) -> None:
-        """Forget the moves of ``joints`` (torque off, reboot: the servo drops its goal)."""
+        """Forget the moves (and a trajectory) of ``joints``: torque off, reboot, reset."""
         for joint in joints:
             self.motions.pop(joint, None)
             self.ref.pop(joint, None)
+        if self.trajectory is not None and set(self.trajectory['joints']) & set(joints):
+            self.trajectory = None
 
 
 def profile_times(profile_type: str, velocity: int, acceleration: int,

@@ -121,3 +121,15 @@ def test_follows_the_simulator_modes_set_from_outside():
     assert d.robot_info('group', 'arm').mode == 'pwm'
     assert d.follow_sim_modes({'waist': '', 'gripper': 'position'}) == ['waist', 'gripper']
     assert d.state['gripper'].mode == 'position'
+
+
+def test_stop_and_clock_going_back_drop_moves_and_trajectories():
+    d = driver()
+    d.trajectory_command('group', 'arm', [0.0, 0.5], [[0.0] * 4, [0.1] * 4], 'position', 2.0)
+    d.single_command('gripper', 0.0, 2.0, SLEEP)
+    d.stop(['waist'])
+    assert d.trajectory is None
+    d.set_operating_modes('single', 'gripper', 'position', 'time', 1000, 0)
+    d.single_command('gripper', 0.5, 2.0, SLEEP)
+    d.trajectory_command('group', 'arm', [0.0, 0.5], [[0.0] * 4, [0.1] * 4], 'position', 2.0)
+    assert d.references(1.0) == {} and not d.active     # a new simulator starts at 0 s
