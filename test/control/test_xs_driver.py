@@ -133,3 +133,17 @@ def test_stop_and_clock_going_back_drop_moves_and_trajectories():
     d.single_command('gripper', 0.5, 2.0, SLEEP)
     d.trajectory_command('group', 'arm', [0.0, 0.5], [[0.0] * 4, [0.1] * 4], 'position', 2.0)
     assert d.references(1.0) == {} and not d.active     # a new simulator starts at 0 s
+
+
+def test_velocity_trajectory_points_are_written_at_their_times():
+    d = driver()
+    d.set_operating_modes('group', 'arm', 'velocity', 'velocity', 0, 0)
+    with pytest.raises(XsError, match='a position trajectory is refused'):
+        d.trajectory_command('group', 'arm', [0.0, 1.0], [[0.0] * 4] * 2, 'position', 0.0)
+    with pytest.raises(XsError, match='above its limit'):
+        d.trajectory_command('group', 'arm', [0.0, 1.0], [[0.0] * 4, [9.0] * 4], 'velocity', 0)
+    d.trajectory_command('group', 'arm', [0.0, 0.5, 1.0], [[0.0] * 4, [0.2] * 4, [0.0] * 4],
+                         'velocity', 3.0)
+    assert d.due_points(3.4, SLEEP) == {}
+    assert d.due_points(3.5, SLEEP) == {j: ('velocity', 0.2) for j in d.groups['arm']}
+    assert d.due_points(4.0, SLEEP)['elbow'] == ('velocity', 0.0) and not d.active
