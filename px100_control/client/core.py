@@ -11,7 +11,8 @@ ros_interfaces.md), in namespace ``/<robot_name>``:
 - IK: ``ik/request`` -> ``ik/solution`` + ``ik/status`` (``ik_service``), paths through
   ``ik/path_request`` -> ``ik/path_solution``;
 - direct setpoints (gripper effort, single motors) on ``commands/joint_setpoints``;
-- torque through ``sim_driver``'s ``torque_enable`` (std_srvs/SetBool) service.
+- torque through ``sim_driver``'s ``torque_enable.<joint>`` parameters (``srv_torque`` is a
+  client of its Interbotix ``torque_enable`` (interbotix_xs_msgs/TorqueEnable) service).
 
 The xs_sdk services are emulated: robot info from the RobotModel (URDF limits and sleep pose),
 the Profile_Velocity / Profile_Acceleration registers kept here (they are what the arm's
@@ -42,6 +43,7 @@ from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseArray, PoseStamped
+from interbotix_xs_msgs.srv import TorqueEnable
 import numpy as np
 from px100_control.client.inprocess import InProcessBringup, ProcessBringup
 from px100_control.client.recorder_wait import local_bag_dirs, RecorderWait
@@ -63,7 +65,7 @@ from rclpy.logging import LoggingSeverity
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from std_srvs.srv import SetBool, Trigger
+from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 #: action_msgs/GoalStatus codes by name and back
@@ -366,7 +368,7 @@ class InterbotixRobotXSCore:
         self.sub_diagnostics = n.create_subscription(
             DiagnosticArray, '/diagnostics', self._diagnostics_cb, _RELIABLE,
             callback_group=cbg)
-        self.srv_torque = n.create_client(SetBool, self.topic('torque_enable'),
+        self.srv_torque = n.create_client(TorqueEnable, self.topic('torque_enable'),
                                           callback_group=cbg)
         self.srv_reset = n.create_client(Trigger, self.topic('reset'), callback_group=cbg)
         self.srv_cancel = n.create_client(CancelGoal, self.topic('trajectory/cancel'),

@@ -1,8 +1,8 @@
 """
 sim_driver: the simulated joint-state driver (joint dynamics + one PID loop per joint).
 
-A thin rclpy adapter over :class:`px100_control.sim.simulator.ArmSimulator`
-(docs/ros_interfaces.md, sim_driver section). Topics in the node's namespace (the robot's):
+A thin rclpy adapter over :class:`px100_control.sim.simulator.ArmSimulator` and xs_sdk's
+interface (:mod:`px100_control.ros.xs_interface`; docs/ros_interfaces.md). In the robot ns:
 
 - pub ``joint_states`` (sensor_msgs/JointState, ``publish_rate``): arm joints, gripper,
   left_finger, right_finger; position, velocity, effort (N*m; fingers m, m/s, N);
@@ -11,7 +11,7 @@ A thin rclpy adapter over :class:`px100_control.sim.simulator.ArmSimulator`
 - sub ``commands/joint_setpoints`` (sensor_msgs/JointState): position (+ optional velocity
   feed-forward) for any subset of joints, or effort [N*m] for the gripper alone; a refused
   message is logged and published on ``/diagnostics`` and nothing of it is applied;
-- services ``torque_enable`` (std_srvs/SetBool: every joint), ``reset`` (std_srvs/Trigger: the
+- services ``sim/torque_enable`` (std_srvs/SetBool: every joint), ``reset`` (Trigger: the
   arm to its sleep pose and the scene's objects to their initial poses);
 - the world of the ``scene`` parameter: pub ``world/markers`` (visualization_msgs/MarkerArray,
   transient local, ``world_rate``: one marker per body, poses in ``<robot_name>/base_link``),
@@ -21,7 +21,7 @@ A thin rclpy adapter over :class:`px100_control.sim.simulator.ArmSimulator`
 
 Torque per joint: parameter ``torque_enable.<joint>`` (bool, every arm joint and the gripper;
 ``ros2 param set /px100/sim_driver torque_enable.gripper false`` switches off only the
-gripper); the ``torque_enable`` service sets all of them, ``reset`` turns them all on.
+gripper); the ``sim/torque_enable`` service sets all of them, ``reset`` turns them all on.
 
 Control mode per joint: parameter ``operating_mode.<joint>`` (string): '' (default: position;
 the gripper takes position or effort), 'position', 'velocity', 'torque' or 'duty'. The joint's
@@ -65,6 +65,7 @@ from px100_control.ros.sim_messages import (error_array, Outbox, pose_stamped, s
                                             StateMessages)
 from px100_control.ros.sim_physics import PhysicsThread, YieldingLock
 from px100_control.ros.world import WorldPublisher
+from px100_control.ros.xs_interface import XsInterface
 from px100_control.sim.driver_parameters import (core_change_error, core_error, CORE_PARAMS,
                                                  GAINS_UNITS)
 from px100_control.sim.simulator import ArmSimulator, parse_setpoints, SimConfig
@@ -146,12 +147,13 @@ class SimDriverNode(Node):
                           if self.stepper.master else None)
         self.create_subscription(JointState, robot_topic(self, 'commands/joint_setpoints'),
                                  self._on_setpoints, 50, callback_group=self._group)
-        for srv, name, callback in ((SetBool, 'torque_enable', self._on_torque),
+        for srv, name, callback in ((SetBool, 'sim/torque_enable', self._on_torque),
                                     (Trigger, 'reset', self._on_reset),
                                     (Trigger, 'world/reset', self._on_world_reset)):
             self.create_service(srv, robot_topic(self, name), callback,
                                 callback_group=self._group)
         self.world = WorldPublisher(self, self._base_frame, world_rate, self._outbox)
+        self.xs = XsInterface(self, self._group)
 
     def _start_clock(self) -> None:
         """Anchor the simulated time on the node clock; start the physics thread."""
@@ -311,6 +313,7 @@ class SimDriverNode(Node):
         with self._lock:
             self.physics.catch_up()
             self.sim.reset()
+            self.xs.driver.stop(self.xs.driver.joints)
             self.world.publish_now(self.sim, self.stepper.stamp_ns)
         self._set_all_torque(True)
         response.success = True

@@ -116,7 +116,7 @@ class ViewerNode(Node):
             self.pub_ik = self.create_publisher(PoseStamped, robot_topic(self, 'ik/request'), 10)
             self.pub_setpoints = self.create_publisher(
                 JointState, robot_topic(self, 'commands/joint_setpoints'), 10)
-            self.cli_torque = self.create_client(SetBool, robot_topic(self, 'torque_enable'))
+            self.cli_torque = self.create_client(SetBool, robot_topic(self, 'sim/torque_enable'))
             self.cli_world_reset = self.create_client(Trigger, robot_topic(self, 'world/reset'))
         self.create_timer(self.period, self._on_timer)
         self.get_logger().info(f'viewer on {self.url} '

@@ -803,6 +803,25 @@ class ArmSimulator:
             else:
                 self.u_cmd[self.names.index(name)] = value
 
+    def set_references(self, refs: Mapping[str, Tuple[float, float]]) -> None:
+        """
+        Hold position references {joint: (q, qd)} [rad, rad/s], qd as feed-forward.
+
+        Clamped to the limits and unchecked otherwise: the per-step path of a profile whose
+        command was checked when it was given (joints in position mode; the gripper goes to
+        position).
+        """
+        for name, (q, qd) in refs.items():
+            if name == self.gripper_name:
+                self.g_mode = 'position'
+                self.g_ref = min(max(q, self.gripper_lower), self.gripper_upper)
+                self.g_ref_vel = qd
+                continue
+            i = self.names.index(name)
+            self.q_ref[i] = min(max(q, self.lower[i]), self.upper[i])
+            self.qd_ref[i] = qd
+            self.ff_until[i] = self.time + self.config.ff_timeout
+
     def command(self, names, position=(), velocity=(), effort=()) -> SetpointCommand:
         """Parse, check and apply a JointState-like setpoint; return it (raises on bad input)."""
         cmd = self.parse(names, position, velocity, effort)

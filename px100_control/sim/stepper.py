@@ -70,6 +70,9 @@ class Stepper:
         self.sim_anchor_ns = 0
         self.next_pub_ns = period_ns(self.publish_rate)
         self.next_clock_ns = period_ns(self.clock_rate)
+        #: callable() run before each physics step while set (e.g. a servo profile that moves
+        #: the setpoints every step); None: the plain loop
+        self.before_step: Optional[Callable[[], None]] = None
 
     @property
     def fast(self) -> bool:
@@ -84,9 +87,15 @@ class Stepper:
     def advance(self, steps: int) -> None:
         """Integrate ``steps`` physics steps; measure the step cost on chunks of 5 or more."""
         step = self.sim.step
+        hook = self.before_step
         t0 = time.perf_counter()
-        for _ in range(steps):
-            step()
+        if hook is None:
+            for _ in range(steps):
+                step()
+        else:
+            for _ in range(steps):
+                hook()
+                step()
         self.sim_ns += steps * self.dt_ns
         if steps >= 5:   # the fastest chunk seen: what this machine needs per step, unloaded
             cost = (time.perf_counter() - t0) / steps

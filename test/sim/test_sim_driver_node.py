@@ -48,7 +48,7 @@ class Probe:
             n.create_subscription(String, '/px100/robot_description', self._keep(self.desc),
                                   LATCHED_QOS)
         self.pub = n.create_publisher(JointState, '/px100/commands/joint_setpoints', 10)
-        self.torque = n.create_client(SetBool, '/px100/torque_enable')
+        self.torque = n.create_client(SetBool, '/px100/sim/torque_enable')
         self.reset = n.create_client(Trigger, '/px100/reset')
 
     def _keep(self, store):

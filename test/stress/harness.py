@@ -443,7 +443,7 @@ class Probe:
         self.pub_ik = n.create_publisher(PoseStamped, t('ik/request'), RELIABLE)
         self.pub_path = n.create_publisher(PoseArray, t('ik/path_request'), RELIABLE)
         self.pub_goal = n.create_publisher(JointTrajectory, t('trajectory/goal'), RELIABLE)
-        self.cli_torque = n.create_client(SetBool, t('torque_enable'))
+        self.cli_torque = n.create_client(SetBool, t('sim/torque_enable'))
         self.cli_reset = n.create_client(Trigger, t('reset'))
         self.cli_cancel = n.create_client(CancelGoal, t('trajectory/cancel'))
         self._param_clients = {}

@@ -1,0 +1,329 @@
+"""
+The Interbotix driver interface of a real sim_driver process (xs_sdk's topics and services).
+
+One sim_driver (installed executable, namespace /px100); a probe node in this process talks to
+it the way Interbotix's Python module (interbotix_xs_modules xs_robot core.py, arm.py,
+gripper.py at humble/jazzy) does: the same service clients, the same calls in the same order.
+"""
+import math
+import threading
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from interbotix_xs_msgs.msg import JointGroupCommand, JointSingleCommand, JointTrajectoryCommand
+from interbotix_xs_msgs.srv import (MotorGains, OperatingModes, Reboot, RegisterValues,
+                                    RobotInfo, TorqueEnable)
+from nodes_helpers import start_node, wait_for
+import pytest
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+NS = '/px100'
+ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']
+SLEEP = [0.0, -1.88, 1.5, 0.8]
+#: (client attribute, type, service) in the order Interbotix's core creates and waits for them
+SERVICES = [('srv_set_op_modes', OperatingModes, 'set_operating_modes'),
+            ('srv_set_pids', MotorGains, 'set_motor_pid_gains'),
+            ('srv_set_reg', RegisterValues, 'set_motor_registers'),
+            ('srv_get_reg', RegisterValues, 'get_motor_registers'),
+            ('srv_get_info', RobotInfo, 'get_robot_info'),
+            ('srv_torque', TorqueEnable, 'torque_enable'),
+            ('srv_reboot', Reboot, 'reboot_motors')]
+
+
+class Probe:
+    """The test's node: Interbotix's clients and publishers, joint_states and /diagnostics."""
+
+    def __init__(self, ctx, spinner):
+        from rclpy.node import Node
+        self.node = n = Node('xs_probe', context=ctx)
+        self.lock = threading.Lock()
+        self.js, self.diag, self.js_count = None, [], 0
+        for attr, srv, name in SERVICES:
+            setattr(self, attr, n.create_client(srv, f'{NS}/{name}'))
+        self.pub_group = n.create_publisher(JointGroupCommand, f'{NS}/commands/joint_group', 10)
+        self.pub_single = n.create_publisher(JointSingleCommand, f'{NS}/commands/joint_single',
+                                             10)
+        self.pub_traj = n.create_publisher(JointTrajectoryCommand,
+                                           f'{NS}/commands/joint_trajectory', 10)
+        n.create_subscription(JointState, f'{NS}/joint_states', self._js, 10)
+        n.create_subscription(DiagnosticArray, '/diagnostics', self._diag, 50)
+        spinner.add(n)
+
+    def _js(self, msg):
+        with self.lock:
+            self.js = msg
+            self.js_count += 1
+
+    def _diag(self, msg):
+        with self.lock:
+            self.diag.extend(msg.status)
+
+    def call(self, client, request, timeout=10.0):
+        """Call a service; return the response (fails with the request on a timeout)."""
+        future = client.call_async(request)
+        assert wait_for(future.done, timeout), f'no reply from {client.srv_name}: {request}'
+        return future.result()
+
+    def position(self, name):
+        with self.lock:
+            return self.js.position[list(self.js.name).index(name)]
+
+    def arm(self):
+        return [self.position(j) for j in ARM]
+
+    def wait_arm(self, target, tol=0.03, timeout=8.0):
+        """Wait until every arm joint is within tol [rad] of target; return the seconds."""
+        t0 = time.monotonic()
+        ok = wait_for(lambda: max(abs(a - b) for a, b in zip(self.arm(), target)) < tol,
+                      timeout)
+        assert ok, f'arm at {self.arm()}, commanded {target}'
+        return time.monotonic() - t0
+
+    def settle(self, tol=0.002, timeout=8.0):
+        """Wait until the arm moves less than tol [rad] between two checks 0.2 s apart."""
+        last = [self.arm(), time.monotonic()]
+
+        def still():
+            if time.monotonic() - last[1] < 0.2:
+                return False
+            now = self.arm()
+            moved = max(abs(a - b) for a, b in zip(now, last[0]))
+            last[:] = [now, time.monotonic()]
+            return moved < tol
+        assert wait_for(still, timeout), f'the arm keeps moving: {self.arm()}'
+
+    def set_reg(self, cmd_type, name, reg, value):
+        return self.call(self.srv_set_reg, RegisterValues.Request(
+            cmd_type=cmd_type, name=name, reg=reg, value=int(value)))
+
+    def refusals(self, what):
+        with self.lock:
+            return [s.message for s in self.diag if s.name.endswith(f'xs/{what}')]
+
+
+@pytest.fixture(scope='module')
+def driver(processes):
+    proc = start_node(processes, 'sim_driver', "scene:=''")
+    yield proc
+
+
+@pytest.fixture(scope='module')
+def probe(driver, ros_ctx, spinner):
+    p = Probe(ros_ctx, spinner)
+    assert p.srv_set_op_modes.wait_for_service(timeout_sec=30.0), driver.output()[-3000:]
+    assert wait_for(lambda: p.js is not None, 10.0), driver.output()[-3000:]
+    return p
+
+
+def test_get_robot_info_arm_gripper_all(probe):
+    """RobotInfo: the arm group and the gripper (as its left finger), as xs_sdk answers."""
+    arm = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='group', name='arm'))
+    assert (arm.mode, arm.profile_type, arm.num_joints) == ('position', 'time', 4)
+    assert list(arm.joint_names) == ARM and list(arm.joint_ids) == [1, 2, 3, 4]
+    assert list(arm.joint_state_indices) == [0, 1, 2, 3] and list(arm.name) == ['arm']
+    assert arm.joint_sleep_positions.tolist() == pytest.approx(SLEEP, abs=1e-6)
+    assert arm.joint_lower_limits.tolist() == pytest.approx(
+        [-(math.pi - 1e-5), -1.937315, -2.111848, -1.745329], abs=1e-5)
+    assert arm.joint_upper_limits.tolist() == pytest.approx(
+        [math.pi - 1e-5, 1.867502, 1.605703, 2.146755], abs=1e-5)
+    assert arm.joint_velocity_limits.tolist() == pytest.approx([math.pi] * 4, abs=1e-5)
+    grip = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single', name='gripper'))
+    assert (grip.mode, grip.num_joints, list(grip.joint_names)) == ('pwm', 1, ['left_finger'])
+    assert list(grip.joint_ids) == [5] and list(grip.joint_state_indices) == [5]
+    assert grip.joint_lower_limits.tolist() == pytest.approx([0.015])
+    assert grip.joint_upper_limits.tolist() == pytest.approx([0.037])
+    assert grip.joint_sleep_positions.tolist() == pytest.approx([0.019494], abs=1e-6)
+    every = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='group', name='all'))
+    assert every.num_joints == 5 and set(every.name) == {'all', 'arm'}
+
+
+def test_joint_group_follows_the_time_profile(probe):
+    """A JointGroupCommand moves the arm along Profile_Velocity ms (here 1000 ms)."""
+    probe.set_reg('group', 'arm', 'Profile_Velocity', 1000)
+    start = probe.arm()
+    target = [0.3, -0.5, 0.4, 0.2]
+    t0 = time.monotonic()
+    probe.pub_group.publish(JointGroupCommand(name='arm', cmd=target))
+    assert wait_for(lambda: abs(probe.position('elbow') - start[2]) > 0.01, 2.0)
+    # halfway in time, the trapezoid is halfway in position (tracking lag allowed)
+    assert wait_for(lambda: time.monotonic() - t0 > 0.5, 2.0)
+    frac = (probe.position('shoulder') - start[1]) / (target[1] - start[1])
+    arrived = probe.wait_arm(target) + (time.monotonic() - t0 - 0.5)
+    assert 0.25 < frac < 0.75, frac
+    assert 0.8 < arrived < 2.5, arrived
+    probe.set_reg('group', 'arm', 'Profile_Velocity', 2000)
+
+
+def test_velocity_mode_then_back_to_position(probe):
+    """set_operating_modes velocity on one joint: rad/s commands; position again holds."""
+    probe.settle()
+    probe.call(probe.srv_set_op_modes, OperatingModes.Request(
+        cmd_type='single', name='waist', mode='velocity'))
+    info = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single', name='waist'))
+    assert (info.mode, info.profile_type) == ('velocity', 'velocity')
+    start = probe.position('waist')
+    t0 = time.monotonic()
+    probe.pub_single.publish(JointSingleCommand(name='waist', cmd=0.5))
+    assert wait_for(lambda: probe.position('waist') > start + 0.25, 3.0), probe.position('waist')
+    speed = (probe.position('waist') - start) / (time.monotonic() - t0)
+    probe.pub_single.publish(JointSingleCommand(name='waist', cmd=0.0))
+    assert 0.3 < speed < 0.55, speed
+    probe.call(probe.srv_set_op_modes, OperatingModes.Request(
+        cmd_type='single', name='waist', mode='position', profile_type='time',
+        profile_velocity=2000, profile_acceleration=300))
+    probe.pub_group.publish(JointGroupCommand(name='arm', cmd=[0.0, 0.0, 0.0, 0.0]))
+    probe.wait_arm([0.0] * 4)
+    assert not probe.refusals(''), probe.refusals('')
+
+
+def test_operating_mode_parameter_is_reported(probe):
+    """operating_mode.<joint> set as a parameter (ros2 param, the client): RobotInfo says so."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    client = probe.node.create_client(SetParameters, f'{NS}/sim_driver/set_parameters')
+
+    def set_mode(value):
+        param = Parameter(name='operating_mode.elbow', value=ParameterValue(
+            type=ParameterType.PARAMETER_STRING, string_value=value))
+        reply = probe.call(client, SetParameters.Request(parameters=[param]))
+        assert reply.results[0].successful, reply.results[0].reason
+        return probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single',
+                                                                name='elbow')).mode
+    assert set_mode('velocity') == 'velocity'
+    assert set_mode('') == 'position'
+    probe.node.destroy_client(client)
+
+
+def _interbotix_startup(probe):
+    """InterbotixManipulatorXS(robot_model='px100') construction: core, arm, gripper."""
+    for attr, _, _ in SERVICES:                             # core: wait for every service
+        assert getattr(probe, attr).wait_for_service(timeout_sec=10.0), attr
+    assert wait_for(lambda: probe.js is not None, 5.0)      # core: first joint_states
+    js_index_map = {n: i for i, n in enumerate(probe.js.name)}
+    group = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='group', name='arm'))
+    assert group.num_joints == 4                            # arm: == Slist columns of px100
+    assert group.profile_type == 'time' and group.mode == 'position'   # else it warns
+    joint_commands = [probe.js.position[js_index_map[n]] for n in group.joint_names]
+    grip = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single', name='gripper'))
+    assert grip.mode in ('pwm', 'current')                  # gripper: else it warns
+    finger = js_index_map[grip.joint_names[0]]
+    assert finger == grip.joint_state_indices[0]
+    return group, grip, finger, joint_commands
+
+
+def _set_trajectory_time(probe, cache, moving_time, accel_time):
+    """arm.set_trajectory_time: write only what differs from the cached values."""
+    if moving_time is not None and moving_time != cache[0]:
+        cache[0] = moving_time
+        probe.set_reg('group', 'arm', 'Profile_Velocity', int(moving_time * 1000))
+    if accel_time is not None and accel_time != cache[1]:
+        cache[1] = accel_time
+        probe.set_reg('group', 'arm', 'Profile_Acceleration', int(accel_time * 1000))
+
+
+def _gripper(probe, grip, finger, effort):
+    """gripper.release / grasp: pwm effort, stopped (0.0) once the finger passes its limit."""
+    probe.pub_single.publish(JointSingleCommand(name='gripper', cmd=float(effort)))
+    lower, upper = grip.joint_lower_limits[0], grip.joint_upper_limits[0]
+    if effort > 0:
+        reached = wait_for(lambda: probe.js.position[finger] >= upper - 0.002, 3.0)
+    else:
+        reached = wait_for(lambda: probe.js.position[finger] <= lower + 0.002, 3.0)
+    assert reached, f'finger at {probe.js.position[finger]} after pwm {effort}'
+    probe.pub_single.publish(JointSingleCommand(name='gripper', cmd=0.0))
+
+
+def test_interbotix_module_call_sequence(probe):
+    """Replay what InterbotixManipulatorXS does on construction and a typical script."""
+    group, grip, finger, joint_commands = _interbotix_startup(probe)
+    cache = [2.0, 0.3]                                   # moving_time, accel_time defaults
+    _set_trajectory_time(probe, cache, 2.0, 0.3)         # construction: equal, writes nothing
+    regs = probe.call(probe.srv_get_reg, RegisterValues.Request(
+        cmd_type='group', name='arm', reg='Profile_Velocity'))
+    assert list(regs.values) == [2000] * 4
+    probe.pub_group.publish(JointGroupCommand(name='arm', cmd=[0.0] * 4))   # go_to_home_pose
+    assert probe.wait_arm([0.0] * 4) < 2.0 + 1.0
+    _set_trajectory_time(probe, cache, 1.5, None)        # set_joint_positions(.., 1.5)
+    target = [0.4, -0.3, 0.2, 0.3]
+    probe.pub_group.publish(JointGroupCommand(name='arm', cmd=target))
+    assert 1.0 < probe.wait_arm(target) < 1.5 + 1.0
+    probe.pub_single.publish(JointSingleCommand(name='waist', cmd=-0.4))  # set_single_joint
+    assert wait_for(lambda: abs(probe.position('waist') + 0.4) < 0.03, 3.5)
+    _gripper(probe, grip, finger, 250.0)                 # gripper.release()
+    _gripper(probe, grip, finger, -250.0)                # gripper.grasp()
+    # set_ee_cartesian_trajectory: 200/100 ms waypoints, then the arm's own timing back
+    _set_trajectory_time(probe, cache, 0.2, 0.1)
+    start = probe.arm()
+    msg = JointTrajectoryCommand(cmd_type='group', name='arm')
+    msg.traj.joint_names = ARM
+    for k in range(21):
+        point = JointTrajectoryPoint(positions=[start[0], start[1] + 0.01 * k, start[2],
+                                                start[3]])
+        point.time_from_start.nanosec = int(k * 0.05 * 1e9) % 1_000_000_000
+        point.time_from_start.sec = int(k * 0.05)
+        msg.traj.points.append(point)
+    probe.pub_traj.publish(msg)
+    probe.wait_arm([start[0], start[1] + 0.2, start[2], start[3]], timeout=4.0)
+    _set_trajectory_time(probe, cache, 1.5, 0.3)
+    probe.pub_group.publish(JointGroupCommand(name='arm', cmd=list(group.joint_sleep_positions)))
+    probe.wait_arm(SLEEP)                                 # go_to_sleep_pose
+    probe.call(probe.srv_torque, TorqueEnable.Request(cmd_type='group', name='arm',
+                                                      enable=False))
+    probe.call(probe.srv_torque, TorqueEnable.Request(cmd_type='group', name='arm',
+                                                      enable=True))
+    probe.call(probe.srv_reboot, Reboot.Request(cmd_type='single', name='gripper', enable=True))
+    probe.call(probe.srv_set_op_modes, OperatingModes.Request(
+        cmd_type='single', name='gripper', mode='pwm'))
+    probe.call(probe.srv_set_pids, MotorGains.Request(cmd_type='group', name='arm', kp_pos=800,
+                                                      kd_pos=3600, kp_vel=100, ki_vel=1920))
+    gains = probe.call(probe.srv_get_reg, RegisterValues.Request(
+        cmd_type='single', name='elbow', reg='Position_P_Gain'))
+    assert list(gains.values) == [800]
+    _set_trajectory_time(probe, cache, 2.0, None)
+    assert not probe.refusals(''), probe.refusals('')
+
+
+BAD = [
+    ('commands/joint_group', lambda p: p.pub_group.publish(
+        JointGroupCommand(name='arm', cmd=[0.1, 0.2])), 'Number of commands (2)'),
+    ('commands/joint_group', lambda p: p.pub_group.publish(
+        JointGroupCommand(name='legs', cmd=[0.1])), "'legs' joint/group does not exist"),
+    ('commands/joint_group', lambda p: p.pub_group.publish(
+        JointGroupCommand(name='arm', cmd=[0.1, float('nan'), 0.0, 0.0])), 'NaN'),
+    ('commands/joint_group', lambda p: p.pub_group.publish(
+        JointGroupCommand(name='arm', cmd=[0.0, 2.5, 0.0, 0.0])), 'outside its limits'),
+    ('commands/joint_single', lambda p: p.pub_single.publish(
+        JointSingleCommand(name='tail', cmd=0.1)), "'tail' joint/group does not exist"),
+    ('commands/joint_single', lambda p: p.pub_single.publish(
+        JointSingleCommand(name='gripper', cmd=2000.0)), 'pwm 2000'),
+    ('commands/joint_trajectory', lambda p: p.pub_traj.publish(
+        JointTrajectoryCommand(cmd_type='group', name='arm')), 'fewer than 2 points'),
+    ('set_operating_modes', lambda p: p.srv_set_op_modes.call_async(OperatingModes.Request(
+        cmd_type='group', name='arm', mode='current', profile_type='time')),
+     'no current sensing'),
+    ('set_operating_modes', lambda p: p.srv_set_op_modes.call_async(OperatingModes.Request(
+        cmd_type='group', name='arm', mode='torque', profile_type='time')),
+     "Invalid command for argument 'mode'"),
+    ('set_motor_registers', lambda p: p.srv_set_reg.call_async(RegisterValues.Request(
+        cmd_type='group', name='arm', reg='Goal_Current', value=5)), "'Goal_Current'"),
+    ('get_motor_registers', lambda p: p.srv_get_reg.call_async(RegisterValues.Request(
+        cmd_type='group', name='arm', reg='Bogus', value=5)), "'Bogus'"),
+    ('torque_enable', lambda p: p.srv_torque.call_async(TorqueEnable.Request(
+        cmd_type='grp', name='arm', enable=False)), "argument 'cmd_type'"),
+]
+
+
+@pytest.mark.parametrize('what,send,reason', BAD, ids=[f'{b[0]}:{b[2][:20]}' for b in BAD])
+def test_bad_input_is_refused_and_nothing_moves(probe, what, send, reason):
+    """Each refusal: an error on /diagnostics naming why, the arm still, the node answering."""
+    probe.settle()
+    before_arm, before = probe.arm(), len(probe.refusals(what))
+    send(probe)
+    assert wait_for(lambda: len(probe.refusals(what)) > before, 5.0), probe.refusals('')
+    assert reason in probe.refusals(what)[-1], probe.refusals(what)[-1]
+    count = probe.js_count      # 30 more samples (0.3 s): a wrongly accepted move would show
+    assert wait_for(lambda: probe.js_count >= count + 30, 5.0)
+    assert max(abs(a - b) for a, b in zip(probe.arm(), before_arm)) < 0.01
+    info = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='group', name='arm'))
+    assert info.mode == 'position' and info.num_joints == 4
