@@ -507,7 +507,11 @@ def main(argv=None) -> int:
     parser.add_argument('--verbose', action='store_true',
                         help="also print trajectory_server's INFO line per goal (about 40)")
     parser.add_argument('--viewer', action='store_true',
-                        help='watch it live in the browser: http://127.0.0.1:8080')
+                        help='watch it live in the browser: http://127.0.0.1:8080; at the end '
+                             'the page keeps showing the final scene until Ctrl-C')
+    parser.add_argument('--viewer-hold', type=float, default=None, metavar='S',
+                        help='with --viewer: keep the final scene up S seconds, not until '
+                             'Ctrl-C')
     args = parser.parse_args(argv)
     os.environ.setdefault('MPLBACKEND', 'Agg')
     if args.viewer:
@@ -590,7 +594,8 @@ def main(argv=None) -> int:
     finally:
         if stop_bag is not None:
             stop_bag()
-        robot_shutdown()
+        if not args.viewer or sys.exc_info()[0] is not None:
+            robot_shutdown()
     if stop_bag is not None:
         trace.read_bag(bag_dir)
     world = trace.world.result()
@@ -619,7 +624,31 @@ def main(argv=None) -> int:
                        'seconds': time.monotonic() - started, 'failed_steps': demo.failures,
                        'phases': trace.phases,
                        'objects': [p.__dict__ for p in placements]}, f, indent=1)
-    return 0 if len(placed) == len(placements) else 1
+    status = 0 if len(placed) == len(placements) else 1
+    if args.viewer:
+        hold_viewer(bot, args.viewer_hold)
+        robot_shutdown()
+    return status
+
+
+def hold_viewer(bot, seconds) -> None:
+    """
+    Keep the nodes and the page up after the run: the final placement stays visible.
+
+    Until Ctrl-C (the client's handler stops the arm and raises SystemExit, caught here), or
+    ``seconds`` [s] of wall time when given. The exit status stays the demo's.
+    """
+    from px100_control.client.robot import get_bringup
+    url = next((n.url for n in getattr(get_bringup(bot.core.robot_name), 'nodes', [])
+                if hasattr(n, 'url')), 'the viewer')
+    until = 'Ctrl-C ends it' if seconds is None else f'for {seconds:g} s (or Ctrl-C)'
+    print(f'viewer: the final scene stays at {url}: {until}', flush=True)
+    end = math.inf if seconds is None else time.monotonic() + seconds
+    try:
+        while time.monotonic() < end:
+            time.sleep(min(0.2, max(0.0, end - time.monotonic())))
+    except (KeyboardInterrupt, SystemExit):
+        print('viewer: closed')
 
 
 if __name__ == '__main__':

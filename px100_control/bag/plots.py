@@ -463,8 +463,9 @@ def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
     ax.set_zlabel('z [m]', fontsize=8)
     _few_ticks(ax)
     moving = _draw_world(ax, world) if world is not None else []
-    lines = [ax.plot([], [], [], color='tab:blue', lw=3, marker='o', ms=3)[0] for _ in edges]
-    trail, = ax.plot([], [], [], color='tab:orange', lw=1)
+    lines = [ax.plot([], [], [], color='tab:blue', lw=3, marker='o', ms=3, zorder=3)[0]
+             for _ in edges]
+    trail, = ax.plot([], [], [], color='tab:orange', lw=1, zorder=3)
     title = ax.set_title('', fontsize=9)
     trail_pts: List[np.ndarray] = []
 
@@ -499,6 +500,7 @@ def _draw_world(ax, world) -> list:
     """
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # optional: plots only
     moving = []
+    ax.computed_zorder = False         # the table under everything, the arm over the bodies
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     points_per_m = 0.55 * 72.0 * ax.figure.get_figwidth() / (x1 - x0)   # the axes' scale
     for name, (ts, xyz) in world.paths.items():
@@ -511,12 +513,12 @@ def _draw_world(ax, world) -> list:
             top = cz + sz / 2
             ax.add_collection3d(Poly3DCollection(
                 [[(lo_x, lo_y, top), (hi_x, lo_y, top), (hi_x, hi_y, top), (lo_x, hi_y, top)]],
-                facecolors=[colour], alpha=0.45, edgecolors='none'))
+                facecolors=[colour], alpha=0.45, edgecolors='none', zorder=0))
             continue
         side = float(np.sqrt(scale[0] * scale[1])) * points_per_m     # footprint's side
         area = max(9.0, side ** 2)
         dot = ax.scatter([xyz[0, 0]], [xyz[0, 1]], [xyz[0, 2]], color=[colour], s=area,
-                         marker='s', depthshade=False, label=name)
+                         marker='s', depthshade=False, label=name, zorder=2)
         if world.kinds.get(name) == 'objects':
             moving.append((dot, (ts, xyz)))
     return moving
