@@ -226,6 +226,43 @@ def extract_object_paths(reader, namespace: str, t0_ns: Optional[int] = None) ->
     return builder.result()
 
 
+# -- held object as published -------------------------------------------------------------------
+#: a grasp counts as lost once the contact test has not found it for this long [s]
+HELD_GRACE = 0.2
+
+
+class HeldFilter:
+    """
+    The held object as ``world/held_object`` reports it: a grasp is lost only when it stays lost.
+
+    The simulator's contact test is instantaneous: carrying a cylinder, one pad can lose contact
+    for a few steps (measured: '' for 60 ms mid-carry, then held again), which would publish
+    '' and the name again and show 'holding: nothing' while the arm carries it. A name is taken
+    at once; '' (or another name after ''), only after ``grace`` [s] without the held one.
+    """
+
+    def __init__(self, grace: float = HELD_GRACE):
+        self.grace_ns = int(round(1e9 * float(grace)))
+        self.held = ''
+        self._lost_ns: Optional[int] = None
+
+    def reset(self) -> None:
+        """Forget the held object (a new scene or a reset)."""
+        self.held, self._lost_ns = '', None
+
+    def update(self, name: str, stamp_ns: int) -> str:
+        """Take the contact test's answer at stamp_ns [ns]; return the held object to report."""
+        name = str(name or '')
+        if name == self.held or not self.held:
+            self.held, self._lost_ns = name, None
+            return self.held
+        if self._lost_ns is None or stamp_ns < self._lost_ns:
+            self._lost_ns = int(stamp_ns)
+        if stamp_ns - self._lost_ns >= self.grace_ns:
+            self.held, self._lost_ns = name, None
+        return self.held
+
+
 # -- verdicts ------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Placement:

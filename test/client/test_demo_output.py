@@ -115,6 +115,18 @@ def test_console_shows_the_objects_not_the_goals(run):
     assert ready and closed and ready.group(1) == closed.group(1), text[-3000:]
 
 
+def test_held_object_changes_only_at_grasp_and_release(run):
+    """world/held_object in the bag: '' then each object once, '' after each (no flicker)."""
+    from px100_control.bag.reader import open_bag
+    proc, outcome, _ = run
+    bag_dir = next(line for line in proc.stdout.splitlines()
+                   if line.startswith('bag:')).split()[1]
+    with open_bag(bag_dir) as bag:
+        held = [msg.data for _, msg in bag.iter_decoded(['/px100/world/held_object'])]
+    names = sorted(o['name'] for o in outcome['objects'])
+    assert held[0::2] == [''] * (len(names) + 1) and sorted(held[1::2]) == names, held
+
+
 def test_results_table_columns_line_up(run):
     proc, _, _ = run
     lines = proc.stdout.splitlines()
