@@ -1,11 +1,13 @@
 """
 The page of ``pick_and_place_demo.py --viewer`` in a real browser, after the demo finished.
 
-The demo (its own process, in-process nodes and viewer) moves one object, prints its table and
-keeps the page up with the final scene (``--viewer-hold``); the browser then reads the status
-panel: time since the start with its clock time, goals by number (no epoch seconds), the
-default scene's 9 bodies, nothing held once released; the slider value boxes show their whole
-numbers. Ctrl-C then ends the demo with its own exit status. Marked slow.
+The demo (its own process, in-process nodes and viewer, the default scene) places the three
+objects, prints its table and keeps the page up with the final scene (``--viewer-hold``); the
+browser then reads the status panel: time since the start with its clock time, goals by number
+(no epoch seconds), the default scene's 9 bodies, nothing held once released; the slider value
+boxes show their whole numbers; the canvas shows the three objects in their colours. This page
+is the README's screenshot (``PX100_UPDATE_DOCS_IMAGES=1`` writes docs/images/viewer.png, a
+plain run out/images/viewer.png). Ctrl-C then ends the demo with its own exit status. Slow.
 """
 import os
 import re
@@ -15,7 +17,7 @@ import sys
 import threading
 
 import pytest
-from viewer_support import open_page
+from viewer_support import canvas_pixels, colour_pixels, open_page
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -43,14 +45,14 @@ def test_page_keeps_the_final_scene_in_readable_units(browser, tmp_path):
     env = dict(os.environ, MPLBACKEND='Agg', PYTHONUNBUFFERED='1')
     proc = subprocess.Popen(
         [sys.executable, os.path.join(ROOT, 'scripts', 'pick_and_place_demo.py'), '--viewer',
-         '--viewer-hold', '120', '--objects', 'green_cube', '--no-bag', '--no-plots',
+         '--viewer-hold', '120', '--no-bag', '--no-plots',
          '--out', str(tmp_path)],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = []
     try:
-        m = _read_until(proc, r'the final scene stays at (http://\S+):', lines, 240.0)
+        m = _read_until(proc, r'the final scene stays at (http://\S+):', lines, 300.0)
         assert m, ''.join(lines)[-4000:]
-        assert any('placed 1/1 objects' in line for line in lines), ''.join(lines)[-3000:]
+        assert any('placed 3/3 objects' in line for line in lines), ''.join(lines)[-3000:]
         page = open_page(browser, m.group(1))
         try:
             text = page.inner_text('body')
@@ -67,6 +69,15 @@ def test_page_keeps_the_final_scene_in_readable_units(browser, tmp_path):
             assert len(boxes) >= 4, boxes
             cut = [b for b in boxes if b[1] > b[2]]
             assert not cut, f'value boxes too narrow (value, text width, box width): {cut}'
+            page.wait_for_timeout(1500)          # let the software renderer draw a few frames
+            img = canvas_pixels(page)
+            for name, rgb in (('red_cube', (217, 38, 38)), ('green_cube', (38, 178, 64)),
+                              ('blue_cylinder', (38, 89, 217))):
+                assert colour_pixels(img, rgb, 50) > 30, f'{name} is not on the canvas'
+            update_docs = os.environ.get('PX100_UPDATE_DOCS_IMAGES') == '1'
+            images = os.path.join(ROOT, 'docs' if update_docs else 'out', 'images')
+            os.makedirs(images, exist_ok=True)
+            page.screenshot(path=os.path.join(images, 'viewer.png'), timeout=90000)
         finally:
             page.close()
         assert proc.poll() is None, 'the demo ended before Ctrl-C'
