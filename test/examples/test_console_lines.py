@@ -43,9 +43,9 @@ def test_without_the_venv_one_line_says_what_to_run(script):
 
 
 def test_examples_say_what_their_source_document_is(tmp_path):
-    proc = subprocess.run([sys.executable, os.path.join(ROOT, 'examples',
-                                                       'seed004_rrrr_elbow.py'),
-                           '--out', str(tmp_path)], capture_output=True, text=True, timeout=300)
+    script = os.path.join(ROOT, 'examples', 'seed004_rrrr_elbow.py')
+    proc = subprocess.run([sys.executable, script, '--out', str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     head = proc.stdout.splitlines()[1]
     assert "'document' below = this example's source notes: a report on a 4-DOF RRRR arm" \
