@@ -505,7 +505,8 @@ def main(argv=None) -> int:
                         help='simulation speed (default 1; env PX100_REAL_TIME_FACTOR); < 1 '
                              'slows the simulation down on a slow machine')
     parser.add_argument('--verbose', action='store_true',
-                        help="also print trajectory_server's INFO line per goal (about 40)")
+                        help="also print trajectory_server's INFO line per goal (about 40; "
+                             'with --connect or --bringup process they always show)')
     parser.add_argument('--viewer', action='store_true',
                         help='watch it live in the browser: http://127.0.0.1:8080; at the end '
                              'the page keeps showing the final scene until Ctrl-C')
@@ -541,8 +542,8 @@ def main(argv=None) -> int:
                                   real_time_factor=args.real_time_factor,
                                   node_kwargs={'parameters': {'scene': scene}})
     robot_startup()
-    if not args.verbose:
-        quiet_goal_lines(args.robot_name)
+    if not args.verbose and not args.connect and args.bringup == 'thread':
+        quiet_goal_lines(args.robot_name)      # (the nodes log in this process)
     if args.connect and scene != 'pick_place':
         sim = bot.core.find_node('sim_driver')
         problem = bot.core.set_remote_parameters(sim, {'scene': scene}) if sim else \
