@@ -53,13 +53,16 @@ CHROMIUM_ARGS = ['--no-sandbox', '--disable-gpu', '--use-gl=swiftshader',
                  '--disable-sync', '--disable-dev-shm-usage']
 OBSERVER_JS = """() => {
   window.__px100 = [];
-  const re = /state t = ([0-9.]+) s/;
+  const re = /state t = [0-9.]+ s at ([0-9]+):([0-9]+):([0-9.]+)/;
   let last = '';
   const note = () => {
     const m = re.exec(document.body.textContent);
-    if (m && m[1] !== last) {
-      last = m[1];
-      window.__px100.push([performance.timeOrigin + performance.now(), parseFloat(m[1])]);
+    if (m && m[0] !== last) {
+      last = m[0];
+      const day = new Date();      // the stamp as local clock time: today at h:m:s.ms
+      day.setHours(parseInt(m[1]), parseInt(m[2]), 0, 0);
+      window.__px100.push([performance.timeOrigin + performance.now(),
+                           day.getTime() / 1000 + parseFloat(m[3])]);
     }
   };
   new MutationObserver(note).observe(document.body,
@@ -137,8 +140,9 @@ async def _websocket_samples(port: int, seconds: float) -> list:
     import viser
     import websockets
     import zstandard
-    # the panel's Markdown source, escaped by markdown_literal: 'state t \= 12\.5 s'
-    pattern, out = re.compile(rb'state t \\?= ([0-9.\\]+) s'), []
+    # the panel's Markdown source, escaped by markdown_literal:
+    # 'state t \= 12\.35 s at 10:34:00\.712' (the stamp as local clock time)
+    pattern, out = re.compile(rb'state t \\?= [0-9.\\]+ s at ([0-9]+):([0-9]+):([0-9.\\]+)'), []
     inflate = zstandard.ZstdDecompressor()
     async with websockets.connect(f'ws://127.0.0.1:{port}', max_size=None,
                                   subprotocols=[f'viser-v{viser.__version__}']) as ws:
@@ -158,9 +162,16 @@ async def _websocket_samples(port: int, seconds: float) -> list:
             # [8 bytes] inflated size, [8 bytes] compressed size, zstd msgpack, buffers
             size, packed = int.from_bytes(raw[:8], 'little'), int.from_bytes(raw[8:16], 'little')
             inner = inflate.decompress(raw[16:16 + packed], max_output_size=size)
-            out += [(arrival, float(m.group(1).replace(b'\\', b'')))
-                    for m in pattern.finditer(inner)]
-    return [s for s in out if s[1] > 1e9]          # live stamps, not the page's initial 0
+            out += [(arrival, _clock_stamp(*m.groups())) for m in pattern.finditer(inner)]
+    return out
+
+
+def _clock_stamp(hours: bytes, minutes: bytes, seconds: bytes) -> float:
+    """Return the epoch seconds of a local clock time of today (the page's stamp text)."""
+    day = time.localtime()
+    midnight = time.mktime((day.tm_year, day.tm_mon, day.tm_mday, 0, 0, 0, 0, 0, -1))
+    return (midnight + 3600 * int(hours) + 60 * int(minutes)
+            + float(seconds.replace(b'\\', b'')))
 
 
 def _latency(samples) -> dict:
@@ -235,7 +246,7 @@ def run(quick: bool = False, log=print, viewport=(1000, 700)) -> dict:
                                         args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={'width': viewport[0], 'height': viewport[1]})
             page.goto(f'http://127.0.0.1:{PORT}')
-            page.wait_for_function('() => /state t = [1-9]/.test(document.body.innerText)',
+            page.wait_for_function('() => /state t = .* s at /.test(document.body.innerText)',
                                    timeout=60000)
             page.wait_for_timeout(2000)
             page.evaluate(OBSERVER_JS)

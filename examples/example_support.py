@@ -11,16 +11,20 @@ import os
 import sys
 from typing import List, Optional
 
-import matplotlib
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)      # run from a source checkout without installing
+
+from px100_control.tools.venv_check import require  # noqa: E402
+
+require('numpy', 'matplotlib', 'yaml', 'mujoco', 'rclpy')
+
+import matplotlib  # noqa: E402, I100
 
 matplotlib.use('Agg')
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)      # run from a source checkout without installing
 
 
 @dataclass
@@ -108,6 +112,20 @@ def _fmt(a: np.ndarray) -> str:
     return np.array2string(a, precision=8, suppress_small=False, max_line_width=200)
 
 
+#: what each example's 'document' is: the source notes the package was built from (not in this
+#: repository: the numbers they print are typed into the examples)
+SOURCE_NOTES = {
+    'seed000': 'a lab report on the PincherX-100 (its DH model in mm, inverse model, '
+               'null-space iterative IK, workspace, two pick-and-place scripts)',
+    'seed001': 'a lab report on the PincherX-100 (compute_aik in MATLAB, a pick-and-place '
+               'waypoint sequence, Cartesian interpolation, a PID gain table)',
+    'seed002': 'a lecture note on an RRRP robot (modified DH, its closed-form inverse model)',
+    'seed003': 'a homework on the Elephant myArm 300 Pi (PoE model, Newton-Raphson IK, its '
+               'tables of joint angles)',
+    'seed004': 'a report on a 4-DOF RRRR arm (standard DH, elbow-up and elbow-down IK)',
+}
+
+
 def start(name: str, description: str, argv=None, extra=None) -> (argparse.Namespace, Report):
     """Parse --out (default out/examples/<name>/) and extra options; return (args, Report)."""
     parser = argparse.ArgumentParser(prog=f'{name}.py', description=description)
@@ -118,6 +136,11 @@ def start(name: str, description: str, argv=None, extra=None) -> (argparse.Names
     args = parser.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
     print(f'{name}: {description}')
+    notes = SOURCE_NOTES.get(name.split('_')[0])
+    if notes:
+        print(f"'document' below = this example's source notes: {notes}. They are not in "
+              'this repository: the numbers they print are typed into this script and shown '
+              "as 'document' beside ours (examples/README.md).")
     return args, Report(name, args.out)
 
 

@@ -10,11 +10,15 @@ import math
 import os
 import sys
 
-import numpy as np
-
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
+
+from px100_control.tools.venv_check import require  # noqa: E402
+
+require('numpy', 'matplotlib', 'yaml')
+
+import numpy as np  # noqa: E402, I100
 
 from px100_control.kinematics.rotations import (euler_sxyz_to_matrix,  # noqa: E402
                                                 matrix_to_euler_sxyz)
@@ -70,7 +74,9 @@ def main(argv=None) -> int:
     line = [transform(euler_sxyz_to_matrix(0.0, 0.5, 0.0), [x, 0.0, 0.12])
             for x in np.linspace(0.12, 0.40, 8)]
     for res in solve_path(model, line, model.home):
-        print(f"  pose {res.details['index']}: " + (_fmt(res.q) if res.success else res.reason))
+        # a failed result's reason names its pose already ('pose 5: target is ... beyond reach')
+        print(f"  pose {res.details['index']}: {_fmt(res.q)}" if res.success else
+              f'  {res.reason}')
     path = render_workspace_png(model, options.png)
     print(f'\nworkspace PNG: {path}')
     return 0

@@ -30,11 +30,15 @@ import sys
 import threading
 import time
 
-import numpy as np
-
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
+
+from px100_control.tools.venv_check import require  # noqa: E402
+
+require('numpy', 'matplotlib', 'yaml', 'mujoco', 'rclpy')
+
+import numpy as np  # noqa: E402, I100
 
 #: where the default scene's objects go: the resting position of each object's centre [m] in
 #: the base frame (x, y; z = the object's starting height, the table). Other scenes: --targets.
@@ -157,12 +161,14 @@ def plot(trace: Trace, targets: dict, verdicts: dict, out_dir: str) -> list:
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    from px100_control.bag.plots import plot_object_paths
+    from px100_control.bag.plots import label_phases, plot_ee_and_objects_3d, plot_object_paths
 
     js, sp, ee = trace.arrays()
     n = len(trace.arm_joints)
     paths = []
-    fig, axes = plt.subplots(n + 1, 1, figsize=(11, 2.1 * (n + 1)), sharex=True)
+    fig, axes = plt.subplots(n + 2, 1, figsize=(11, 2.1 * (n + 1) + 1.2), sharex=True,
+                             gridspec_kw={'height_ratios': [0.55 * (n + 1)] + [1] * (n + 1)})
+    strip, axes = axes[0], axes[1:]
     for i, name in enumerate(trace.arm_joints):
         ax = axes[i]
         if len(sp):
@@ -184,38 +190,25 @@ def plot(trace: Trace, targets: dict, verdicts: dict, out_dir: str) -> list:
     for t, label in trace.phases:
         for a in axes:
             a.axvline(t, color='gray', lw=0.5, alpha=0.5)
-        axes[0].text(t, axes[0].get_ylim()[1], ' ' + label, rotation=90, va='top', ha='left',
-                     fontsize=6, color='dimgray')
+    strip.set_ylabel('phase', fontsize=8)
+    strip.tick_params(axis='x', labelbottom=False)
+    for side in ('top', 'right', 'bottom'):
+        strip.spines[side].set_visible(False)
     fig.suptitle('PincherX-100 pick and place: joint positions vs trajectory setpoints')
     fig.tight_layout()
+    label_phases(strip, trace.phases)      # after the layout: labels measured at their size
     path = os.path.join(out_dir, 'pick_and_place_joints.png')
     fig.savefig(path, dpi=110)
     plt.close(fig)
     paths.append(path)
 
     world = trace.world.result()
-    fig = plt.figure(figsize=(8, 7))
-    ax = fig.add_subplot(projection='3d')
-    if len(ee):
-        ax.plot(ee[:, 1], ee[:, 2], ee[:, 3], color='gray', lw=1.0, label='end effector')
-    for name in world.objects():
-        _, xyz = world.paths[name]
-        ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], lw=2.0,
-                label=f'{name} ({verdicts.get(name, "?")})')
-        if name in targets:
-            ax.scatter(*targets[name], marker='x', s=60, color='k')
-    ax.set_xlabel('x [m]')
-    ax.set_ylabel('y [m]')
-    ax.set_zlabel('z [m]')
-    ax.set_title('End effector and objects in px100/base_link (x: targets)')
-    ax.legend(loc='upper left', fontsize=8)
-    fig.tight_layout()
-    path = os.path.join(out_dir, 'pick_and_place_ee_path.png')
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    paths.append(path)
+    ee_t, ee_xyz = (ee[:, 0], ee[:, 1:]) if len(ee) else (np.zeros(0), np.zeros((0, 3)))
+    paths.append(plot_ee_and_objects_3d(
+        ee_xyz, world, os.path.join(out_dir, 'pick_and_place_ee_path.png'),
+        title='End effector and objects in px100/base_link (x: targets)', targets=targets,
+        verdicts=verdicts))
     if world.objects():
-        ee_t, ee_xyz = (ee[:, 0], ee[:, 1:]) if len(ee) else (np.zeros(0), np.zeros((0, 3)))
         paths.append(plot_object_paths(
             ee_t, ee_xyz, world, os.path.join(out_dir, 'pick_and_place_objects.png'),
             title='pick and place: object paths and end-effector path (px100/base_link)',
@@ -383,7 +376,7 @@ class Demo:
             print(f'  {name}: SKIPPED, {where} is outside the workspace at every grasp pitch')
             return False
         g = self.bot.gripper
-        self.trace.phase('open')
+        self.trace.phase(f'{name}: open')
         g.release(delay=0.3)
         if not self.goto('Approach Pick', grasp, p_pitch, APPROACH_HEIGHT):
             return False
@@ -448,6 +441,19 @@ def pick_order(world, names) -> list:
     return sorted(names, key=lambda n: -clearance(n, bodies))
 
 
+def quiet_goal_lines(robot_name: str) -> None:
+    """
+    Hide trajectory_server's INFO line per goal (accepted / SUCCEEDED) in this process.
+
+    The in-process nodes log through this process's rcutils loggers: warnings and errors (an
+    aborted move) still show, the per-object progress is printed by the demo itself.
+    """
+    from rclpy.logging import LoggingSeverity, set_logger_level
+    set_logger_level(f"{robot_name.strip('/')}.trajectory_server".lstrip('.'),
+                     LoggingSeverity.WARN)
+    print('(per-goal log lines hidden: --verbose shows them)')
+
+
 def parse_targets(text: str) -> dict:
     """Return {name: (x, y[, z])} [m] of 'name:x,y[,z] name:x,y' (command line)."""
     out = {}
@@ -491,15 +497,22 @@ def main(argv=None) -> int:
                         help='gripper pressure 0..1 (the grasp PWM)')
     parser.add_argument('--json', default='',
                         help='also write the outcome (per object: verdict, final, target, '
-                             'error [m]) to this JSON file')
+                             'error [m]; the phases [s]) to this JSON file')
     parser.add_argument('--bringup', choices=('thread', 'process'), default='thread',
                         help='run the nodes as threads of this process (default) or as child '
                              'processes (more robust on a loaded machine)')
     parser.add_argument('--real-time-factor', type=float, default=None,
                         help='simulation speed (default 1; env PX100_REAL_TIME_FACTOR); < 1 '
                              'slows the simulation down on a slow machine')
+    parser.add_argument('--verbose', action='store_true',
+                        help="also print trajectory_server's INFO line per goal (about 40; "
+                             'with --connect or --bringup process they always show)')
     parser.add_argument('--viewer', action='store_true',
-                        help='watch it live in the browser: http://127.0.0.1:8080')
+                        help='watch it live in the browser: http://127.0.0.1:8080; at the end '
+                             'the page keeps showing the final scene until Ctrl-C')
+    parser.add_argument('--viewer-hold', type=float, default=None, metavar='S',
+                        help='with --viewer: keep the final scene up S seconds, not until '
+                             'Ctrl-C')
     args = parser.parse_args(argv)
     os.environ.setdefault('MPLBACKEND', 'Agg')
     if args.viewer:
@@ -529,6 +542,8 @@ def main(argv=None) -> int:
                                   real_time_factor=args.real_time_factor,
                                   node_kwargs={'parameters': {'scene': scene}})
     robot_startup()
+    if not args.verbose and not args.connect and args.bringup == 'thread':
+        quiet_goal_lines(args.robot_name)      # (the nodes log in this process)
     if args.connect and scene != 'pick_place':
         sim = bot.core.find_node('sim_driver')
         problem = bot.core.set_remote_parameters(sim, {'scene': scene}) if sim else \
@@ -580,7 +595,8 @@ def main(argv=None) -> int:
     finally:
         if stop_bag is not None:
             stop_bag()
-        robot_shutdown()
+        if not args.viewer or sys.exc_info()[0] is not None:
+            robot_shutdown()
     if stop_bag is not None:
         trace.read_bag(bag_dir)
     world = trace.world.result()
@@ -607,8 +623,33 @@ def main(argv=None) -> int:
         with open(args.json, 'w', encoding='utf-8') as f:
             json.dump({'scene': scene, 'seed': args.seed, 'jitter': args.jitter,
                        'seconds': time.monotonic() - started, 'failed_steps': demo.failures,
+                       'phases': trace.phases,
                        'objects': [p.__dict__ for p in placements]}, f, indent=1)
-    return 0 if len(placed) == len(placements) else 1
+    status = 0 if len(placed) == len(placements) else 1
+    if args.viewer:
+        hold_viewer(bot, args.viewer_hold)
+        robot_shutdown()
+    return status
+
+
+def hold_viewer(bot, seconds) -> None:
+    """
+    Keep the nodes and the page up after the run: the final placement stays visible.
+
+    Until Ctrl-C (the client's handler stops the arm and raises SystemExit, caught here), or
+    ``seconds`` [s] of wall time when given. The exit status stays the demo's.
+    """
+    from px100_control.client.robot import get_bringup
+    url = next((n.url for n in getattr(get_bringup(bot.core.robot_name), 'nodes', [])
+                if hasattr(n, 'url')), 'the viewer')
+    until = 'Ctrl-C ends it' if seconds is None else f'for {seconds:g} s (or Ctrl-C)'
+    print(f'viewer: the final scene stays at {url}: {until}', flush=True)
+    end = math.inf if seconds is None else time.monotonic() + seconds
+    try:
+        while time.monotonic() < end:
+            time.sleep(min(0.2, max(0.0, end - time.monotonic())))
+    except (KeyboardInterrupt, SystemExit):
+        print('viewer: closed')
 
 
 if __name__ == '__main__':

@@ -105,7 +105,8 @@ def write_plots(reader: BagReader, out_dir: str, namespace: Optional[str] = None
     if gif and tree is not None:
         try:
             written.append(plots.animate_arm(series, tree, os.path.join(out_dir, 'arm.gif'),
-                                             fps=fps, max_frames=max_frames))
+                                             fps=fps, max_frames=max_frames,
+                                             world=world if world.paths else None))
         except BagError as exc:
             print(f'inspect: no animation: {exc}', file=sys.stderr)
     return written

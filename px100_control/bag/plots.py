@@ -321,6 +321,76 @@ def plot_object_paths(ee_t: np.ndarray, ee_xyz: np.ndarray, world, path: str,
     return path
 
 
+def plot_ee_and_objects_3d(ee_xyz: np.ndarray, world, path: str, title: str = '',
+                           targets: Optional[Dict[str, Sequence[float]]] = None,
+                           verdicts: Optional[Dict[str, str]] = None) -> str:
+    """
+    Draw the end-effector path and each object's path in 3D, each object in its scene colour.
+
+    :param ee_xyz: end-effector positions [m] (N, 3), may be empty
+    :param world: :class:`px100_control.bag.world.ObjectPaths` (colours from world/markers)
+    :param targets: optional name -> target position [m], drawn as crosses in the object's colour
+    :param verdicts: optional name -> verdict text, shown in the legend
+    """
+    plt = _pyplot()
+    fig = plt.figure(figsize=(8, 7))
+    ax = fig.add_subplot(projection='3d')
+    if len(ee_xyz):
+        ax.plot(ee_xyz[:, 0], ee_xyz[:, 1], ee_xyz[:, 2], color='gray', lw=1.0,
+                label='end effector')
+    cycle = plt.rcParams['axes.prop_cycle'].by_key()['color']
+    for k, name in enumerate(world.objects()):
+        _, xyz = world.paths[name]
+        c = _object_colour(world.rgba.get(name), cycle[k % len(cycle)])
+        label = name + (f' ({verdicts[name]})' if verdicts and name in verdicts else '')
+        ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], lw=2.0, color=c, label=label)
+        if targets and name in targets:
+            ax.scatter(*(float(v) for v in targets[name]), marker='x', s=60, color=c,
+                       linewidths=2)
+    ax.set_xlabel('x [m]')
+    ax.set_ylabel('y [m]')
+    ax.set_zlabel('z [m]')
+    _few_ticks(ax)
+    ax.set_title(title or 'end effector and objects (x: targets)', fontsize=10)
+    ax.legend(loc='upper left', fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def label_phases(ax, phases: Sequence[Tuple[float, str]], fontsize: float = 7.0,
+                 gap_px: float = 4.0) -> list:
+    """
+    Write phase labels (time [s], text) on ``ax`` in as many rows as keep them apart.
+
+    Each label goes into the first row where it starts ``gap_px`` right of the previous
+    label's end (widths measured by the renderer at the figure's present layout: lay the figure
+    out first). The rows run top-down over the axes' height, the x axis is time.
+    :return: the Text artists
+    """
+    renderer = ax.figure.canvas.get_renderer()
+    to_px = ax.transData
+    ends: List[float] = []                  # right end [px] of the last label in each row
+    placed = []
+    for t, label in sorted(phases, key=lambda p: p[0]):
+        text = ax.text(t, 0.0, label, fontsize=fontsize, color='dimgray', ha='left',
+                       va='center', clip_on=False)
+        x0 = to_px.transform((t, 0.0))[0]
+        width = text.get_window_extent(renderer).width
+        row = next((r for r, end in enumerate(ends) if x0 >= end + gap_px), len(ends))
+        if row == len(ends):
+            ends.append(0.0)
+        ends[row] = x0 + width
+        placed.append((text, row))
+    rows = max(1, len(ends))
+    for text, row in placed:
+        text.set_y(row)
+    ax.set_ylim(rows - 0.5, -0.5)
+    ax.set_yticks([])
+    return [text for text, _ in placed]
+
+
 def _object_colour(rgba, fallback: str):
     """Return an object's own colour (rgba 0..1; opaque, darkened if too light to see on white)."""
     if rgba is None or len(rgba) < 3:
@@ -340,6 +410,14 @@ def _equal_axes(ax, pts: np.ndarray, pad: float = 0.02) -> None:
                 center[2] + half)
 
 
+def _few_ticks(ax, count: int = 4, fontsize: float = 7.0) -> None:
+    """Give each axis of a 3D plot at most ``count`` ticks in a small font (none overlap)."""
+    from matplotlib.ticker import MaxNLocator  # optional: plots only
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(count))
+        axis.set_tick_params(labelsize=fontsize)
+
+
 def animation_frames(series: BagSeries, fps: float, max_frames: int) -> List[int]:
     """Return the joint_states sample index shown in each GIF frame (real time at fps)."""
     if len(series.t) == 0:
@@ -352,11 +430,14 @@ def animation_frames(series: BagSeries, fps: float, max_frames: int) -> List[int
 
 
 def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
-                max_frames: int = 150, ee_link: str = 'ee_gripper_link') -> str:
+                max_frames: int = 150, ee_link: str = 'ee_gripper_link', world=None) -> str:
     """
     Write a GIF of the arm (links as a stick figure, the end-effector trail) from joint_states.
 
     :param tree: TfTree of the robot (link poses from joint positions)
+    :param world: optional :class:`px100_control.bag.world.ObjectPaths` (same time origin as
+        ``series``): the table's top, the fixtures and the objects are drawn in their scene
+        colours, the objects where they were at each frame's time
     :raises BagError: no joint_states, or pillow is not installed
     """
     plt = _pyplot()
@@ -374,32 +455,73 @@ def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
     pts = np.array([p[:3, 3] for pose in poses for p in pose.values()])
     fig = plt.figure(figsize=(5.5, 5.0))
     ax = fig.add_subplot(projection='3d')
-    _equal_axes(ax, np.vstack([pts, np.zeros((1, 3))]))
-    ax.set_xlabel('x [m]')
-    ax.set_ylabel('y [m]')
-    ax.set_zlabel('z [m]')
-    lines = [ax.plot([], [], [], color='tab:blue', lw=3, marker='o', ms=3)[0] for _ in edges]
-    trail, = ax.plot([], [], [], color='tab:orange', lw=1)
-    title = ax.set_title('')
+    bodies = [xyz for name, (_, xyz) in (world.paths.items() if world else ())
+              if world.kinds.get(name) != 'table']
+    _equal_axes(ax, np.vstack([pts, np.zeros((1, 3))] + bodies))
+    ax.set_xlabel('x [m]', fontsize=8)
+    ax.set_ylabel('y [m]', fontsize=8)
+    ax.set_zlabel('z [m]', fontsize=8)
+    _few_ticks(ax)
+    moving = _draw_world(ax, world) if world is not None else []
+    lines = [ax.plot([], [], [], color='tab:blue', lw=3, marker='o', ms=3, zorder=3)[0]
+             for _ in edges]
+    trail, = ax.plot([], [], [], color='tab:orange', lw=1, zorder=3)
+    title = ax.set_title('', fontsize=9)
     trail_pts: List[np.ndarray] = []
 
     def draw(k):
-        pose = poses[k]
+        pose, t = poses[k], series.t[frames[k]]
         for line, (a, b) in zip(lines, edges):
             p, c = pose[a][:3, 3], pose[b][:3, 3]
             line.set_data_3d([p[0], c[0]], [p[1], c[1]], [p[2], c[2]])
+        for dot, (ts, xyz) in moving:
+            i = max(0, int(np.searchsorted(ts, t, side='right')) - 1)
+            dot._offsets3d = ([xyz[i, 0]], [xyz[i, 1]], [xyz[i, 2]])
         if k == 0:
             trail_pts.clear()
         trail_pts.append(pose[ee][:3, 3])
         arr = np.array(trail_pts)
         trail.set_data_3d(arr[:, 0], arr[:, 1], arr[:, 2])
-        title.set_text(f'{series.namespace or "arm"}  t = {series.t[frames[k]]:6.2f} s')
+        title.set_text(f'{series.namespace or "arm"}  t = {t:6.2f} s')
         return lines + [trail, title]
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
     anim.save(path, writer=PillowWriter(fps=fps))
     plt.close(fig)
     return path
+
+
+def _draw_world(ax, world) -> list:
+    """
+    Draw the world's bodies on a 3D axes: the table's top as a surface, the rest as dots.
+
+    Dot areas follow the bodies' footprints (roughly, at the axes' scale); return
+    [(dot, (t, xyz))] of the movable objects.
+    """
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # optional: plots only
+    moving = []
+    ax.computed_zorder = False         # the table under everything, the arm over the bodies
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    points_per_m = 0.55 * 72.0 * ax.figure.get_figwidth() / (x1 - x0)   # the axes' scale
+    for name, (ts, xyz) in world.paths.items():
+        colour = _object_colour(world.rgba.get(name), 'tab:gray')
+        scale = world.shapes.get(name, ('box', (0.02, 0.02, 0.02)))[1]
+        if world.kinds.get(name) == 'table':
+            (cx, cy, cz), (sx, sy, sz) = xyz[-1], scale
+            lo_x, hi_x = max(x0, cx - sx / 2), min(x1, cx + sx / 2)
+            lo_y, hi_y = max(y0, cy - sy / 2), min(y1, cy + sy / 2)
+            top = cz + sz / 2
+            ax.add_collection3d(Poly3DCollection(
+                [[(lo_x, lo_y, top), (hi_x, lo_y, top), (hi_x, hi_y, top), (lo_x, hi_y, top)]],
+                facecolors=[colour], alpha=0.45, edgecolors='none', zorder=0))
+            continue
+        side = float(np.sqrt(scale[0] * scale[1])) * points_per_m     # footprint's side
+        area = max(9.0, side ** 2)
+        dot = ax.scatter([xyz[0, 0]], [xyz[0, 1]], [xyz[0, 2]], color=[colour], s=area,
+                         marker='s', depthshade=False, label=name, zorder=2)
+        if world.kinds.get(name) == 'objects':
+            moving.append((dot, (ts, xyz)))
+    return moving
 
 
 def default_output_dir(bag_path: str) -> str:

@@ -18,7 +18,8 @@ The xs_sdk services are emulated: robot info from the RobotModel (URDF limits an
 the Profile_Velocity / Profile_Acceleration registers kept here (they are what the arm's
 moving_time / accel_time become), PID gains and reboots logged as not applicable. Operating
 modes as xs_sdk's: position modes move through trajectory_server; 'velocity' [rad/s],
-'current' [mA, torque through the XL430 figures, :data:`TORQUE_PER_AMP`] and 'pwm' [+-885]
+'current' [mA, torque through the joint's DYNAMIXEL figures: :meth:`InterbotixRobotXSCore.servo_of`
+from the robot file's ``servos``, the XL430-W250 where it names none] and 'pwm' [+-885]
 put the joints of sim_driver in velocity / torque / duty control (its ``operating_mode.<joint>``
 parameters) and send the commands on ``commands/joint_setpoints``; positions for a joint in
 another mode are refused, never sent as something else. Torque on/off per joint, group or all
@@ -49,6 +50,7 @@ from px100_control.client.inprocess import InProcessBringup, ProcessBringup
 from px100_control.client.recorder_wait import local_bag_dirs, RecorderWait
 import px100_control.client.robot as _robot
 from px100_control.client.robot import InterbotixException
+from px100_control.control.actuator import DYNAMIXEL, joint_servos, JointServos
 from px100_control.control.gripper import effort_to_pwm as _effort_to_pwm
 from px100_control.control.gripper import pwm_to_effort as _pwm_to_effort
 from px100_control.errors import Px100Error
@@ -91,12 +93,15 @@ DRIVER_MODES = {'position': '', 'ext_position': '', 'current_based_position': ''
 #: the modes in which commands are positions
 POSITION_MODES = ('position', 'ext_position', 'current_based_position')
 #: DYNAMIXEL XL430-W250 figures (ROBOTIS e-Manual, XL430-W250 specifications, at 11.1 V):
-#: stall torque 1.4 N*m at a stall current of 1.3 A, PWM_Limit 885 (= 100 % duty). The
-#: XL430 has no current control mode of its own; 'current' is emulated with its torque
-#: constant, stall torque / stall current = 1.077 N*m/A at the output shaft.
-STALL_TORQUE = 1.4
-STALL_CURRENT_MA = 1300.0
-TORQUE_PER_AMP = STALL_TORQUE / (STALL_CURRENT_MA / 1000.0)
+#: stall torque 1.4 N*m at a stall current of 1.3 A, PWM_Limit 885 (= 100 % duty): the px100's
+#: servos and the default of a joint whose robot file names no servo. 'current' is emulated
+#: with the joint's servo torque constant, stall torque / stall current (1.077 N*m/A for the
+#: XL430, which has no current mode of its own; 1.78 for the XM430-W350, 2.41 for the
+#: XM540-W270), times its servo count (a shadowed shoulder: 2).
+DEFAULT_SERVO = JointServos(DYNAMIXEL['XL430-W250'])
+STALL_TORQUE = DEFAULT_SERVO.figures.stall_torque
+STALL_CURRENT_MA = 1000.0 * DEFAULT_SERVO.figures.stall_current
+TORQUE_PER_AMP = DEFAULT_SERVO.torque_per_amp
 PWM_LIMIT = 885.0
 #: a finger this close to a limit [m] counts as there (the simulated linkage stops at it)
 FINGER_TOLERANCE = 2e-4
@@ -285,6 +290,11 @@ class InterbotixRobotXSCore:
         self._gripper_effort_at = 0.0
         #: called before an arm move; each returns a warning or None (the gripper's timing)
         self._before_arm_move: List = []
+        #: the last velocity / current / pwm command of each joint (xs_sdk units)
+        self._last_effort: Dict[str, float] = {}
+        self._servos = joint_servos(
+            self.model.extra.get('servos'), list(self.model.joint_names)
+            + ([self.model.gripper.joint] if self.model.gripper is not None else []))
         for j in self.model.joint_names:
             self._registers[j] = {'Profile_Velocity': 2000, 'Profile_Acceleration': 300}
             self._modes[j] = ('position', 'time')
@@ -1059,7 +1069,7 @@ class InterbotixRobotXSCore:
 
         'position', 'ext_position', 'current_based_position': positions [rad] through
         trajectory_server; 'velocity': commands in rad/s; 'current': commands in mA, torque
-        control through the servo model (:data:`TORQUE_PER_AMP`); 'pwm': commands in PWM units
+        control through the joint's servo figures (:meth:`servo_of`); 'pwm': commands in PWM units
         (+-885 = full duty). sim_driver switches the joints (parameter
         ``operating_mode.<joint>``) and they hold. Any other mode is refused with the reason and
         its commands are refused with that reason until a supported mode is set (as xs_sdk
@@ -1112,6 +1122,44 @@ class InterbotixRobotXSCore:
         while any(p.status not in TERMINAL for p in running) and time.monotonic() < end:
             time.sleep(0.01)
 
+    def running_effort_joints(self) -> List[str]:
+        """Return the arm joints whose last velocity / current / pwm command is not zero."""
+        return [j for j in self.model.joint_names if self._last_effort.get(j, 0.0) != 0.0
+                and self.mode_of(j) not in POSITION_MODES]
+
+    def play_out(self, limit: float, still: float = 0.02, hold: float = 0.5) -> str:
+        """
+        Let a last velocity / current / pwm command of an in-process simulation play out.
+
+        On the real robot such a command keeps the motors going after the script ends; the
+        simulation started by this client (bringup) ends with it. Waits until the joints are
+        still (|velocity| < ``still`` rad/s for ``hold`` s) or ``limit`` [s]; return what it
+        did in one line ('' when nothing was running or no bringup of this client).
+        """
+        joints = self.running_effort_joints() if self._started_bringup else []
+        if not joints or limit <= 0:
+            return ''
+        modes = sorted({self.mode_of(j) for j in joints})
+        q0 = self.joint_positions(joints)
+        start = time.monotonic()
+        since = start
+        while time.monotonic() - start < limit:
+            time.sleep(0.05)
+            if np.max(np.abs(self._joint_field(joints, 'velocity'))) >= still:
+                since = time.monotonic()
+            elif time.monotonic() - since >= hold:
+                break
+        moved = ', '.join(f'{j} {d:+.2f} rad' for j, d in
+                          zip(joints, self.joint_positions(joints) - q0))
+        return (f"robot_shutdown: the last {'/'.join(modes)} command played out "
+                f'{time.monotonic() - start:.1f} s in the simulation ({moved}; limit {limit:g} '
+                's: the simulation ends with the script, a real arm keeps going until torque '
+                'off)')
+
+    def servo_of(self, joint: str) -> JointServos:
+        """Return the DYNAMIXEL(s) of a joint (robot file ``servos``; default XL430-W250)."""
+        return self._servos.get(joint, DEFAULT_SERVO)
+
     def mode_of(self, joint: str) -> str:
         """Return the Interbotix operating mode of a joint ('position', 'current', ...)."""
         return self._modes[joint][0]
@@ -1140,11 +1188,13 @@ class InterbotixRobotXSCore:
                 out.append(('velocities', items))
             elif mode == 'current':
                 for j, c in items:
-                    if abs(c) > STALL_CURRENT_MA:
+                    figures = self.servo_of(j).figures
+                    if abs(c) > 1000.0 * figures.stall_current:
                         raise InterbotixException(
-                            f"current {c:g} mA for '{j}' exceeds the XL430-W250's stall "
-                            f'current ({STALL_CURRENT_MA:g} mA): not sent')
-                out.append(('efforts', [(j, c / 1000.0 * TORQUE_PER_AMP) for j, c in items]))
+                            f"current {c:g} mA for '{j}' exceeds the {figures.model}'s stall "
+                            f'current ({1000.0 * figures.stall_current:g} mA): not sent')
+                out.append(('efforts', [(j, c / 1000.0 * self.servo_of(j).torque_per_amp)
+                                        for j, c in items]))
             elif mode == 'pwm':
                 g = self.model.gripper
                 for j, c in items:
@@ -1156,6 +1206,7 @@ class InterbotixRobotXSCore:
                      else c / PWM_LIMIT) for j, c in items]))
         for kind, items in out:
             self.publish_setpoints([j for j, _ in items], **{kind: [v for _, v in items]})
+        self._last_effort.update(zip(names, (float(c) for c in commands)))
 
     def robot_set_motor_pid_gains(self, cmd_type: str, name: str, kp_pos: int, ki_pos: int = 0,
                                   kd_pos: int = 0, k1: int = 0, k2: int = 0, kp_vel: int = 100,

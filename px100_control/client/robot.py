@@ -307,6 +307,7 @@ def robot_shutdown(node: Optional[Node] = None) -> None:
     Safe to call when nothing is up and to call twice; afterwards a new robot may be created.
     :param node: (optional) the node to shut down; default the global node
     """
+    _play_out(list(_RT.robots))
     with _RT.lock:
         for robot in _RT.robots:
             try:
@@ -342,6 +343,28 @@ def robot_shutdown(node: Optional[Node] = None) -> None:
             if signal.getsignal(signal.SIGINT) is _on_sigint:
                 signal.signal(signal.SIGINT, signal.default_int_handler)
             _RT.handler_installed = False
+
+
+#: longest time [s] robot_shutdown lets a last velocity / current / pwm command of the arm
+#: play out in a simulation this script started (env PX100_SHUTDOWN_PLAY_OUT; 0: none)
+PLAY_OUT_S = 5.0
+
+
+def _play_out(robots) -> None:
+    """Let each robot's last effort command play out before its simulation stops."""
+    if _RT.interrupted:
+        return          # Ctrl-C: stop now
+    try:
+        limit = float(os.environ.get('PX100_SHUTDOWN_PLAY_OUT', PLAY_OUT_S))
+    except ValueError:
+        limit = PLAY_OUT_S
+    for robot in robots:
+        try:
+            line = robot.play_out(limit) if hasattr(robot, 'play_out') else ''
+        except Exception as exc:  # noqa: B902 - shutting down anyway
+            line = f'robot_shutdown: no play-out ({exc})'
+        if line:
+            print(line, flush=True)
 
 
 def _at_exit() -> None:

@@ -123,3 +123,83 @@ def servo_for_joint(joint_type: str, effort_limit: float = None,
                                      stall_torque=float(effort_limit),
                                      armature=base.armature * scale)
     return base.with_changes(**overrides) if overrides else base
+
+
+# -- DYNAMIXEL figures per servo model -----------------------------------------------------------
+@dataclass(frozen=True)
+class DynamixelFigures:
+    """
+    A DYNAMIXEL's published stall figures at one supply voltage (ROBOTIS e-Manual).
+
+    :param stall_torque: [N*m] at ``voltage`` and full duty, zero speed
+    :param stall_current: [A] drawn at stall
+    :param no_load_speed: [rad/s] at ``voltage``, no load
+    :param source: where the figures are published
+    """
+
+    model: str
+    voltage: float
+    stall_torque: float
+    stall_current: float
+    no_load_speed: float
+    source: str
+
+    @property
+    def torque_per_amp(self) -> float:
+        """Return stall_torque / stall_current [N*m/A] (the e-Manual's torque constant)."""
+        return self.stall_torque / self.stall_current
+
+
+def _rpm(value: float) -> float:
+    return value * 2.0 * math.pi / 60.0
+
+
+_EMANUAL = 'ROBOTIS e-Manual, https://emanual.robotis.com/docs/en/dxl/x/{}/ (Specifications)'
+#: the servos of the Interbotix X-Series arms: stall torque, stall current and no-load speed at
+#: the voltage given (XL430 at 11.1 V as this project's servo model; the XM and XC at their
+#: recommended 12.0 V)
+DYNAMIXEL = {f.model: f for f in (
+    DynamixelFigures('XL430-W250', 11.1, 1.4, 1.3, _rpm(57.0), _EMANUAL.format('xl430-w250')),
+    DynamixelFigures('XM430-W350', 12.0, 4.1, 2.3, _rpm(46.0), _EMANUAL.format('xm430-w350')),
+    DynamixelFigures('XM540-W270', 12.0, 10.6, 4.4, _rpm(30.0), _EMANUAL.format('xm540-w270')),
+    DynamixelFigures('XC430-W150', 12.0, 1.6, 1.4, _rpm(106.0), _EMANUAL.format('xc430-w150')),
+)}
+
+
+@dataclass(frozen=True)
+class JointServos:
+    """The DYNAMIXEL(s) driving one joint: ``count`` of ``figures`` (2 for a shadowed joint)."""
+
+    figures: DynamixelFigures
+    count: int = 1
+
+    @property
+    def torque_per_amp(self) -> float:
+        """Return the joint torque [N*m] per ampere commanded to each of its servos."""
+        return self.count * self.figures.torque_per_amp
+
+
+def joint_servos(spec, joints=None) -> dict:
+    """
+    Return {joint: JointServos} of a robot file's ``servos`` section.
+
+    ``spec`` maps joint -> 'XM430-W350' or '2x XM430-W350' (a joint with a shadow servo).
+    :param joints: the robot's joint names (unknown names are refused)
+    :raises InvalidInputError: naming every entry that is not a known DYNAMIXEL or joint
+    """
+    out, bad = {}, []
+    for joint, text in dict(spec or {}).items():
+        count, _, name = str(text).strip().rpartition('x ')
+        try:
+            n = int(count) if count else 1
+        except ValueError:
+            n = 0
+        if name not in DYNAMIXEL or n < 1 or (joints is not None and joint not in joints):
+            bad.append(f'{joint}: {text!r}')
+            continue
+        out[str(joint)] = JointServos(DYNAMIXEL[name], n)
+    if bad:
+        raise InvalidInputError(
+            f"servos: {'; '.join(bad)} (expected a joint of the robot and one of "
+            f"{', '.join(sorted(DYNAMIXEL))}, optionally '2x <model>')")
+    return out

@@ -47,7 +47,7 @@ from typing import List, Optional, Sequence
 import weakref
 
 from px100_control.bag.recording import (check_positive, default_output_dir, StopConditions,
-                                         TopicSelection)
+                                         TF_TOPIC, TopicSelection)
 from px100_control.bag.tf_recording import TfRecording
 from px100_control.bag.tool_options import add_record_arguments
 from px100_control.bag.writer import BagWriter
@@ -194,7 +194,8 @@ class RecorderNode(Node):
         self._pub_ready = self.create_publisher(String, self.selection.ready_topic, LATCHED_QOS)
         self._pub_ready.publish(String(data=self.output))
         self.ready.set()
-        self.get_logger().info(f'ready: recording {len(self._subs)} topics to {self.output}')
+        self.get_logger().info(f'ready: recording {self._counted(self._subs)} to {self.output}'
+                               ' (topics that appear later are added)')
 
     def scan_graph(self) -> None:
         """Subscribe to every selected topic that has a publisher and is not recorded yet."""
@@ -298,8 +299,15 @@ class RecorderNode(Node):
                     break
                 self.tf.take(topic, taken[0], t, time.monotonic(), description=False)
 
+    def _counted(self, topics) -> str:
+        """Return 'N topics' of a topic set, saying so when this recorder computes /tf."""
+        computed = self.tf.enabled and TF_TOPIC not in self._subs
+        subscribed = len(set(topics) - {TF_TOPIC}) if computed else len(set(topics))
+        return f'{subscribed + computed} topics' + (
+            f' ({subscribed} subscribed + {TF_TOPIC} computed here)' if computed else '')
+
     def _summary(self) -> str:
-        return (f'{self.bag.message_count} messages on {len(self.bag.topics)} topics in '
+        return (f'{self.bag.message_count} messages on {self._counted(self.bag.topics)} in '
                 f'{self.output}' + (f' ({self.stop_reason})' if self.stop_reason else ''))
 
     @property

@@ -8,11 +8,12 @@ subscriber gets the last state at once). ``world/markers`` follows ``world_rate`
 driver's time (simulated time when it owns the clock); the MarkerArray is built once per scene
 and then restamped with the objects' new poses (in its CDR bytes, when the middleware reads
 them right). ``world/held_object`` is published when the held
-object changes (checked at the same rate).
+object changes (checked at the same rate; a grasp counts as lost once it stayed lost
+:data:`~px100_control.bag.world.HELD_GRACE` s, see :class:`~px100_control.bag.world.HeldFilter`).
 """
 from typing import List, Optional
 
-from px100_control.bag.world import world_markers
+from px100_control.bag.world import HeldFilter, world_markers
 from px100_control.errors import InvalidInputError
 from px100_control.ros.common import LATCHED_QOS, robot_topic
 from px100_control.ros.conversions import time_from_ns
@@ -51,7 +52,8 @@ class WorldPublisher:
         self._movable: List = []                    # (marker index, object name)
         self._raw = None                            # the message's bytes writer, if any
         self._next_ns: Optional[int] = None
-        self._held: Optional[str] = None
+        self._held: Optional[str] = None           # last published
+        self._held_filter = HeldFilter()
         self.has_objects = False
 
     @staticmethod
@@ -88,6 +90,7 @@ class WorldPublisher:
         """Publish markers and the held object now (after a reset or a scene change)."""
         self._next_ns = None
         self._held = None
+        self._held_filter.reset()
         self.tick(sim, stamp_ns)
 
     def tick(self, sim, stamp_ns: int) -> None:
@@ -101,7 +104,7 @@ class WorldPublisher:
         self._next_ns = (stamp_ns + period if self._next_ns is None
                          or abs(stamp_ns - self._next_ns) > period
                          else self._next_ns + period)
-        held = (sim.held_object() if bodies else None) or ''
+        held = self._held_filter.update((sim.held_object() if bodies else None) or '', stamp_ns)
         if held != self._held:
             self._held = held
             self.pub_held.publish(String(data=held))

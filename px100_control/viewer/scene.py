@@ -39,6 +39,13 @@ BUTTONS = (('home', 'Home'), ('sleep', 'Sleep'), ('gripper_open', 'Open gripper'
            ('torque_on', 'Torque on'), ('torque_off', 'Torque off'))
 #: seconds after the user's last slider or gizmo input before they follow the robot again
 FOLLOW_DELAY = 1.5
+#: joint slider step [rad or m]; the value box (3 rem wide in viser) shows what fits: '-1.88'
+SLIDER_STEP = 0.01
+
+
+def _on_step(value: float) -> float:
+    """Return value rounded to the slider step (the box shows every digit it is sent)."""
+    return round(round(float(value) / SLIDER_STEP) * SLIDER_STEP, 6)
 
 
 def _wxyz(quat_xyzw: Sequence[float]) -> Tuple[float, float, float, float]:
@@ -175,8 +182,10 @@ class ViewerScene:
             return
         with self._joints_folder:
             for name, lo, hi in zip(arm.joint_names, arm.lower, arm.upper):
-                s = self.server.gui.add_slider(name, min=lo, max=hi, step=0.01,
-                                               initial_value=min(max(0.0, lo), hi))
+                s = self.server.gui.add_slider(
+                    name, min=lo, max=hi, step=SLIDER_STEP,
+                    initial_value=_on_step(min(max(0.0, lo), hi)),
+                    marks=((lo, f'{lo:.2f}'), (hi, f'{hi:.2f}')))
                 s.on_update(self.guard.wrap(self._on_slider))
                 self.sliders[name] = s
 
@@ -316,7 +325,7 @@ class ViewerScene:
         for name, slider in self.sliders.items():
             v = state.joints.get(name)
             if v is not None and abs(v - slider.value) > 0.005:
-                slider.value = float(min(max(v, slider.min), slider.max))
+                slider.value = _on_step(min(max(v, slider.min), slider.max))
         if self.gizmo is not None:
             pose = state.ee_pose()
             if pose is not None and np.linalg.norm(np.subtract(pose[0], self.gizmo.position)) \

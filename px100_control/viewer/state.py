@@ -10,6 +10,7 @@ from collections import deque
 from dataclasses import dataclass
 import math
 import re
+import time
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
 #: visualization_msgs/Marker type -> shape name (CUBE, SPHERE, CYLINDER)
@@ -199,6 +200,19 @@ def markdown_literal(text: str) -> str:
     return _MARKDOWN_SPECIAL.sub(r'\\\g<0>', one_line)
 
 
+def clock_text(stamp: float) -> str:
+    """
+    Return a stamp [s] as the user reads it: local clock time, or simulated seconds.
+
+    Stamps after 1 Jan 2001 are wall-clock time ('10:34:00.712'); smaller ones come from a
+    simulated clock that started at 0 ('sim time 12.35 s').
+    """
+    if stamp < 978307200.0:
+        return f'sim time {stamp:.2f} s'
+    whole = time.localtime(stamp)
+    return time.strftime('%H:%M:%S', whole) + f'.{int(1000 * (stamp % 1.0)):03d}'
+
+
 def stamp_seconds(stamp) -> float:
     """Return a builtin_interfaces/Time-like object (sec, nanosec) as float seconds."""
     return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
@@ -222,6 +236,8 @@ class ViewerState:
         self.robot_error = ''
         self.joints: Dict[str, float] = {}
         self.stamp = 0.0
+        self.first_stamp: Optional[float] = None
+        self.goal_numbers: Dict[float, int] = {}
         self.bodies: Dict[Tuple[str, int], Body] = {}
         self.held = ''
         self.trail = Trail(trail_points, trail_step)
@@ -256,6 +272,8 @@ class ViewerState:
             if math.isfinite(v):
                 self.joints[str(n)] = v
         self.stamp = float(stamp)
+        if self.first_stamp is None or self.stamp < self.first_stamp:
+            self.first_stamp = self.stamp      # the start (or a clock that went back)
         self._bump('joints', 'status')
 
     def ee_pose(self):
@@ -298,6 +316,7 @@ class ViewerState:
         """Show a trajectory goal's end-effector path and target (through fk)."""
         if self.fk is None:
             return
+        self.goal_number(goal_id)
         configs = interpolate_joint_path(self.joints, names, points)
         poses = [self.fk(q) for q in configs]
         self.path = [tuple(p[0]) for p in poses if p is not None]
@@ -305,9 +324,16 @@ class ViewerState:
         self.path_goal = goal_id
         self._bump('path')
 
+    def goal_number(self, goal_id: float) -> int:
+        """Return the goal's number on this page: 1, 2, ... in the order goals were seen."""
+        key = round(float(goal_id), 9)
+        if key not in self.goal_numbers:
+            self.goal_numbers[key] = len(self.goal_numbers) + 1
+        return self.goal_numbers[key]
+
     def set_goal_status(self, goal_id: float, status: str) -> None:
         """Set the latest goal's status; a terminal one ends the path display of that goal."""
-        text = f'goal {goal_id:.3f}: {status}'
+        text = f'goal {self.goal_number(goal_id)}: {status}'
         if text != self.goal_status:
             self.goal_status = text
             self._bump('status')
@@ -334,8 +360,18 @@ class ViewerState:
             self._bump('status')
 
     def status_lines(self) -> List[str]:
-        """Return the status panel's lines (joint_states stamp first)."""
-        lines = [f'state t = {self.stamp:.6f} s']
+        """
+        Return the status panel's lines (the joint_states time first).
+
+        'state t = 12.35 s at 10:34:00.712': seconds since the first joint_states this page
+        saw, and the stamp as clock time (or simulated time). Goals are numbered in the order
+        they were seen (their ROS id is their stamp).
+        """
+        if self.first_stamp is None:
+            lines = ['state: no joint_states yet']
+        else:
+            lines = [f'state t = {self.stamp - self.first_stamp:.2f} s at '
+                     f'{clock_text(self.stamp)}']
         if self.robot_error:
             lines.append(f'robot: {self.robot_error}')
         lines.append(f'trajectory: {self.goal_status or "no goal yet"}')

@@ -63,6 +63,23 @@ def test_world_markers_ids_ns_and_tf_frames():
     assert object_frame('', 'x') == 'objects/x'
 
 
+def test_held_filter_takes_a_grasp_at_once_and_a_loss_once_it_lasts():
+    """A few steps without contact while carrying are no release; a real release is (0.2 s)."""
+    from px100_control.bag.world import HeldFilter
+    f = HeldFilter(grace=0.2)
+    ms = 1_000_000
+    assert f.update('', 0) == ''
+    assert f.update('cyl', 10 * ms) == 'cyl'            # a grasp: at once
+    for t in (40, 70, 100):                              # 60 ms lost mid-carry (seen in a run)
+        assert f.update('' if t < 100 else 'cyl', t * ms) == 'cyl'
+    assert f.update('', 200 * ms) == 'cyl'               # released: still 'cyl' for 0.2 s
+    assert f.update('', 399 * ms) == 'cyl'
+    assert f.update('', 400 * ms) == ''
+    assert f.update('cube', 410 * ms) == 'cube'
+    f.reset()
+    assert f.held == '' and f.update('', 420 * ms) == ''
+
+
 def test_placement_verdicts():
     """Placed within the tolerance; dropped when lifted but elsewhere; not picked otherwise."""
     start, target = (0.2, 0.1, 0.0125), (0.2, -0.1, 0.0125)

@@ -1,7 +1,7 @@
 """
 Operating modes emulated as xs_sdk does, on real in-process nodes (the ``bot`` fixture).
 
-velocity commands are rad/s, current commands mA (torque through the XL430 figures), pwm
+velocity commands are rad/s, current commands mA (torque through the px100's XL430 figures), pwm
 commands PWM units; positions for a joint in another mode are refused, never executed as
 something else; a mode the simulation cannot emulate is refused with the reason, and so are
 the commands of those joints until a supported mode is set. The core's position writes last

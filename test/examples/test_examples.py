@@ -91,7 +91,12 @@ def test_seed001(tmp_path):
     for key in ('pid', 'pid_tuned'):
         assert len(rep.values[key]) == 6
         assert all(r.settled for r in rep.values[key]), key      # no figure of a moving joint
-    assert all(c.matches for c in _get(rep, 'physical pattern:') + _get(rep, 'tuned pattern:'))
+    assert all(c.matches for c in _get(rep, 'tuned pattern:'))
+    # the physical plant: every claim but 'D shortens settling' (its D runs settle later than
+    # Kp 640 alone, and the claim line says so with the numbers)
+    assert [c.label for c in _get(rep, 'physical pattern:') if not c.matches] == [
+        c.label for c in _get(rep, 'physical pattern: D shortens settling')]
+    assert all(c.why for c in _get(rep, 'physical pattern:') if not c.matches)
     assert _get(rep, 'no grid neighbour of the stored plant scores lower')[0].matches
     best, seen = rep.values['pid_search']
     assert best.score < 1.5 and len(seen) == 10

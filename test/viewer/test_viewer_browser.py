@@ -6,7 +6,6 @@ read-only) run as installed executables over Fast DDS; this process watches the 
 rclpy node and publishes a world as a real MarkerArray. The browser's actions (slider drag,
 gizmo drag) are checked where they must arrive: on joint_states and ee_pose.
 """
-import os
 import threading
 import time
 
@@ -15,7 +14,6 @@ import pytest
 from viewer_support import CANVAS_CLIP, canvas_pixels, colour_pixels, dark_pixels, open_page, \
     PORT_BASE, wait_for, wait_http, Watcher
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 PORT, PORT_RO = PORT_BASE + 1, PORT_BASE + 2
 URL, URL_RO = f'http://127.0.0.1:{PORT}', f'http://127.0.0.1:{PORT_RO}'
 HOME = ('waist', 'shoulder', 'elbow', 'wrist_angle'), (0.0, 0.0, 0.0, 0.0)
@@ -94,12 +92,6 @@ def test_page_connects_and_shows_the_arm_and_world(page, graph):
     assert dark_pixels(img) > 3000, f'no arm on the canvas ({dark_pixels(img)} dark pixels)'
     assert colour_pixels(img, (230, 26, 26), 50) > 30, 'the red cube of world/markers is missing'
     assert colour_pixels(img, (26, 178, 51), 50) > 100, 'the green bin of world/markers is missing'
-    # the README's screenshot is this one: PX100_UPDATE_DOCS_IMAGES=1 writes it to docs/images
-    # (a plain test run leaves the tracked file alone and writes out/images/viewer.png)
-    update_docs = os.environ.get('PX100_UPDATE_DOCS_IMAGES') == '1'
-    images = os.path.join(ROOT, 'docs' if update_docs else 'out', 'images')
-    os.makedirs(images, exist_ok=True)
-    page.screenshot(path=os.path.join(images, 'viewer.png'), timeout=90000)
 
 
 def test_arm_on_the_page_moves_when_a_goal_executes(page, graph):

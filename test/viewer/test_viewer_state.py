@@ -97,9 +97,27 @@ def test_state_versions_status_and_terminal_goal():
     assert st.path == []
     st.set_error('ik: unreachable by 0.12 m')
     lines = st.status_lines()
-    assert lines[0] == 'state t = 12.500000 s'
+    assert lines[0] == 'state t = 0.00 s at sim time 12.50 s'
     assert 'last error: ik: unreachable by 0.12 m' in lines
-    assert 'trajectory: goal 3.000: SUCCEEDED' in lines
+    assert 'trajectory: goal 1: SUCCEEDED' in lines
+
+
+def test_status_shows_time_since_start_and_numbered_goals():
+    """Seconds since the first joint_states and clock time, goals by number, not epoch floats."""
+    import time
+    st = ViewerState()
+    assert st.status_lines()[0] == 'state: no joint_states yet'
+    start = 1795767240.7        # wall-clock stamps, as sim_driver sends them
+    st.set_joints(['a'], [0.0], start)
+    st.set_joints(['a'], [0.1], start + 12.25)
+    clock = time.strftime('%H:%M:%S', time.localtime(start + 12.25))
+    assert st.status_lines()[0] == f'state t = 12.25 s at {clock}.950'
+    for goal in (start + 1.0, start + 2.5, start + 1.0):
+        st.set_goal_status(goal, 'SUCCEEDED')
+        assert '1795767' not in ' '.join(st.status_lines())
+    assert 'trajectory: goal 1: SUCCEEDED' in st.status_lines()
+    st.set_goal_status(start + 2.5, 'ABORTED')
+    assert 'trajectory: goal 2: ABORTED' in st.status_lines()
 
 
 #: texts that are Markdown or HTML when not escaped (names and error texts reach the panel as is)

@@ -81,8 +81,8 @@ def test_viewer_bag_option_plays_a_bag_with_a_time_slider(browser, node_process,
         page.mouse.up()
         assert float(thumb.get_attribute('aria-valuenow')) > 0.2
         page.wait_for_function(
-            '(b) => document.body.innerText.match(/state t = [0-9.]+/)[0] !== '
-            'b.match(/state t = [0-9.]+/)[0]', arg=before, timeout=10000)
+            '(b) => document.body.innerText.match(/state t = [0-9.]+ s at [0-9:.]+/)[0] !== '
+            'b.match(/state t = [0-9.]+ s at [0-9:.]+/)[0]', arg=before, timeout=10000)
     finally:
         page.close()
 
@@ -128,13 +128,15 @@ def test_read_only_viewer_shows_a_replayed_bag(browser, node_process, tmp_path):
     node_process('replay', bag, '--loop')
     page = open_page(browser, f'http://127.0.0.1:{port}')      # waits for joint_states
     try:
-        # the recorded stamps (1.7e9 s) reach the page, and they advance
-        page.wait_for_function("() => document.body.innerText.includes('state t = 17000000')",
-                               timeout=45000)
+        # the recorded stamps (1.7e9 s) reach the page as clock time, and they advance
+        page.wait_for_function(
+            '() => /state t = [0-9.]+ s at [0-9]{2}:[0-9]{2}:[0-9]{2}[.][0-9]{3}/'
+            '.test(document.body.innerText)', timeout=45000)
+        assert '17000000' not in page.inner_text('body')
         first = page.inner_text('body')
         page.wait_for_function(
-            '(b) => document.body.innerText.match(/state t = [0-9.]+/)[0] !== '
-            'b.match(/state t = [0-9.]+/)[0]', arg=first, timeout=20000)
+            '(b) => document.body.innerText.match(/state t = [0-9.]+ s at [0-9:.]+/)[0] !== '
+            'b.match(/state t = [0-9.]+ s at [0-9:.]+/)[0]', arg=first, timeout=20000)
         assert page.locator('[role=slider]').count() == 0
         assert dark_pixels(canvas_pixels(page)) > 3000
     finally:

@@ -163,10 +163,10 @@ def open_page(browser, url: str, timeout: float = 60.0):
     """Open url in a new page, wait for viser's status panel; close the WebGL notice."""
     page = browser.new_page(viewport={'width': 1000, 'height': 700})
     page.goto(url)
-    page.wait_for_selector('text=state t =', timeout=timeout * 1000)
-    # the first joint_states reached the page: the stamp is no longer zero
+    page.wait_for_selector('text=state', timeout=timeout * 1000)
+    # the first joint_states reached the page: 'state t = 0.00 s at 10:34:00.712'
     page.wait_for_function(
-        '() => /state t = [1-9]/.test(document.body.innerText)', timeout=timeout * 1000)
+        '() => /state t = [0-9.]+ s at /.test(document.body.innerText)', timeout=timeout * 1000)
     page.wait_for_timeout(500)
     page.evaluate("() => document.querySelectorAll('.mantine-Notification-closeButton')"
                   '.forEach(b => b.click())')
