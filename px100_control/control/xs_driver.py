@@ -6,10 +6,12 @@ registers) and turns its commands (group, single, trajectory) into what the simu
 as the real DYNAMIXELs would; time is always an argument (``now`` [s], the simulator's time).
 
 Configuration: the ``xs_driver`` block of a robot file (config/robots/*.yaml): ``motor_ids``
-{joint: id}, ``servos`` {joint: servo model}, ``groups`` {group: [joints]} and ``modes`` as
+{joint: id}, ``groups`` {group: [joints]} and ``modes`` as
 Interbotix's modes.yaml (``groups`` / ``singles``: operating_mode, profile_type,
 profile_velocity, profile_acceleration). Without a block: one group 'arm' of the arm joints,
-ids 1..n, position / time profile 2000 ms / 300 ms, gripper pwm. The group 'all' (every motor)
+ids 1..n, position / time profile 2000 ms / 300 ms, gripper pwm. The servo of each joint is the
+robot file's ``servos`` section (figures in :data:`px100_control.control.actuator.DYNAMIXEL`;
+unlisted: XL430-W250). The group 'all' (every motor)
 always exists.
 
 Command units by operating mode (the real driver's): position, ext_position,
@@ -28,6 +30,7 @@ from dataclasses import dataclass, field
 import math
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
+from px100_control.control.actuator import DYNAMIXEL, joint_servos, JointServos
 from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import GAIN_REGISTER_MAX, PWM_FULL_SCALE
 from px100_control.control.trajectory import plan_move, scaling_at
@@ -57,6 +60,7 @@ class ServoCaps:
     current: bool
     stall_torque: float
     stall_current: float
+    model: str = 'XL430-W250'
 
     @property
     def torque_constant(self) -> float:
@@ -64,13 +68,18 @@ class ServoCaps:
         return self.stall_torque / self.stall_current
 
 
-#: servo capabilities by model name (ROBOTIS e-manual figures at the arms' supply voltage)
-SERVO_CAPS = {
-    'XL430-W250': ServoCaps(current=False, stall_torque=1.4, stall_current=1.3),
-    'XM430-W350': ServoCaps(current=True, stall_torque=4.1, stall_current=2.3),
-    'XM540-W270': ServoCaps(current=True, stall_torque=10.6, stall_current=4.4),
-}
+#: DYNAMIXEL models without current sensing (no current or current_based_position mode)
+NO_CURRENT_SENSING = ('XL430-W250', 'XC430-W150')
 DEFAULT_SERVO = 'XL430-W250'
+
+
+def servo_caps(servos: JointServos) -> ServoCaps:
+    """Return what the servo(s) of one joint can do (a shadowed joint has twice the torque)."""
+    fig = servos.figures
+    return ServoCaps(current=fig.model not in NO_CURRENT_SENSING,
+                     stall_torque=servos.count * fig.stall_torque, stall_current=fig.stall_current,
+                     model=('2x ' if servos.count == 2 else '') + fig.model)
+
 
 #: registers this driver reads and writes; others are refused naming them
 WRITABLE = ('Profile_Velocity', 'Profile_Acceleration', 'Position_P_Gain', 'Position_I_Gain',
@@ -180,12 +189,12 @@ class XsDriver:
         self.joints = list(model.joint_names) + ([self.gripper] if self.gripper else [])
         self.ids = {j: int(config.get('motor_ids', {}).get(j, k + 1))
                     for k, j in enumerate(self.joints)}
-        self.servos = {j: str(config.get('servos', {}).get(j, DEFAULT_SERVO))
-                       for j in self.joints}
-        for joint, servo in self.servos.items():
-            if servo not in SERVO_CAPS:
-                raise XsError(f"servo model '{servo}' of '{joint}' is unknown (known: "
-                              f"{', '.join(SERVO_CAPS)})")
+        # the robot file's servos section (control.actuator: the e-Manual figures); joints it
+        # does not list have the px100's XL430-W250
+        listed = joint_servos((getattr(model, 'extra', None) or {}).get('servos'), self.joints)
+        self._caps = {j: servo_caps(listed.get(j, JointServos(DYNAMIXEL[DEFAULT_SERVO])))
+                      for j in self.joints}
+        self.servos = {j: c.model for j, c in self._caps.items()}
         groups = dict(config.get('groups') or {'arm': list(model.joint_names)})
         groups['all'] = list(self.joints)
         for group, members in groups.items():
@@ -225,7 +234,7 @@ class XsDriver:
 
     def caps(self, joint: str) -> ServoCaps:
         """Return the capabilities of a joint's servo."""
-        return SERVO_CAPS[self.servos[joint]]
+        return self._caps[joint]
 
     # --- services ----------------------------------------------------------------------------
     def robot_info(self, cmd_type: str, name: str) -> RobotInfo:

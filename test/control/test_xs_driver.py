@@ -67,12 +67,13 @@ def test_modes_units_and_refusals():
 
 
 def test_current_mode_on_xm430():
-    """wx250s: XM430-W350 elbow takes mA -> N*m through its torque constant."""
+    """wx250s: the elbow's two XM430-W350 take mA -> N*m through their torque constant."""
     model = load_robot('wx250s')
     d = XsDriver(model, model.extra['xs_driver'], list(model.joint_names) + JS[4:])
     d.set_operating_modes('single', 'elbow', 'current', 'velocity', 0, 0)
     kind, torque = d.single_command('elbow', 1000.0, 0.0, {})['elbow']
-    assert kind == 'torque' and torque == pytest.approx(4.1 / 2.3)
+    assert model.extra['servos']['elbow'] == '2x XM430-W350'
+    assert kind == 'torque' and torque == pytest.approx(2 * 4.1 / 2.3)
 
 
 def test_linear_position_and_trajectory():
