@@ -117,26 +117,31 @@ def frame_id(node: Node, frame: str) -> str:
 
 
 def parse_cli(description: str, args: Optional[Sequence[str]] = None,
-              add_arguments=None, schemas: Sequence[NodeSchema] = ()
+              add_arguments=None, schemas: Sequence[NodeSchema] = (), example_args: str = ''
               ) -> (argparse.Namespace, List[str]):
     """
     Parse a node's command line: ``--help`` (with the nodes' parameters), own options, ROS args.
 
     :param schemas: the parameter schemas of the nodes this executable runs (``--help``)
+    :param example_args: the executable's own arguments in the ``example:`` line of ``--help``
+        (``BAG`` for replay); the line runs as printed once they are filled in
     :raises SystemExit: status 1 with one line ``<prog>: error: <reason>`` when rcl refuses the
         ROS arguments (argparse's own errors: status 2, as usual)
     :return: (parsed options, the full argv to hand to ``rclpy.init(args=...)``)
     """
     argv = list(sys.argv if args is None else args)
-    epilog = ('ROS arguments: --ros-args -r __ns:=/px100 -p robot_model:=px100 '
-              '--params-file config/px100.yaml -r joint_states:=js\n'
-              'An empty string value: --ros-args -p "scene:=\'\'" (rcl reads the value as YAML).\n'
+    prog = argv[0].rsplit('/', 1)[-1] if argv else 'px100_control'
+    own = f'{prog} {example_args}'.strip()
+    epilog = ("ROS arguments (ROS 2's forms, after the options): --ros-args -p name:=value "
+              '--params-file FILE -r __ns:=/arm1 -r from:=to; an empty string is '
+              '-p "name:=\'\'" (rcl reads values as YAML)\n'
+              f'example: {own} --ros-args -r __ns:=/arm1 -p robot_model:=px150\n'
               'Nodes run in the robot namespace (/<robot_name>, default /px100) with relative '
               'names.')
     for schema in schemas:
         epilog += '\n\n' + schema.help_text()
     parser = argparse.ArgumentParser(
-        prog=argv[0].rsplit('/', 1)[-1] if argv else None, description=description,
+        prog=prog, description=description,
         epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
     if add_arguments is not None:
         add_arguments(parser)
@@ -282,13 +287,17 @@ def warn_without_clock(node: Node, wait: float = CLOCK_WAIT_S) -> None:
 
 def ros_args_error(exc: BaseException) -> Optional[str]:
     """
-    Return a one-line reason when ``exc`` is rcl refusing the ROS arguments (else None).
+    Return a one-line reason when ``exc`` is rcl or rclpy refusing the ROS arguments (else None).
 
     rclpy raises RCLError / UnknownROSArgsError / RCLInvalidROSArgsError (module
     ``rclpy._rclpy_pybind11``) with rcl's source locations appended; the line keeps rcl's words
     and the rule it could not parse. An empty value (``-p scene:=``: the shell ate ``''``) gets
-    the form rcl accepts, ``-p "scene:=''"``.
+    the form rcl accepts, ``-p "scene:=''"``. rclpy's parameter exceptions (a value out of its
+    descriptor's range or of the wrong type, raised while a node declares it) are kept as
+    they read.
     """
+    if type(exc).__module__ == 'rclpy.exceptions' and 'Parameter' in type(exc).__name__:
+        return ' '.join(str(exc).split())   # a -p value out of a descriptor's range or type
     if type(exc).__module__ != 'rclpy._rclpy_pybind11':
         return None
     text = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
