@@ -209,7 +209,7 @@ def install_stop_signals() -> None:
     nodes and only then shuts the context down. rclpy's own handlers would shut the context
     down at once, inside the signal, while the executor still runs timer callbacks: a timer
     publishing a setpoint then failed with "publisher's context is invalid" ([FATAL] in the
-    EventsExecutor, 2 of 20 Ctrl-C during a move under ``ros2 launch``). Python's default
+    EventsExecutor, seen on Ctrl-C during a move under ``ros2 launch``). Python's default
     SIGINT handler would raise KeyboardInterrupt at an arbitrary point, e.g. inside a callback
     that rclpy's C++ EventsExecutor runs, where pybind11 turns it into std::terminate. A second
     SIGINT (``ros2 launch`` sends one to the process group and one of its own) or SIGTERM is

@@ -69,6 +69,8 @@ SHARED = {
 }
 FULL = os.environ.get('PX100_STRESS', '').lower() == 'full'
 ENV_PREFIX = re.compile(r'^source (\S*scripts/env\.sh) && ')
+#: prefix of a line from the apt-workspace block
+WORKSPACE = 'WORKSPACE: '
 
 
 def _shell_env():
@@ -91,16 +93,22 @@ def _script(line):
 
 
 def markdown_commands(rel):
-    """Return the command lines of a Markdown file: bash blocks and inline commands."""
+    """
+    Return the command lines of a Markdown file: bash blocks and inline commands.
+
+    Lines continued with a backslash are joined; the lines of a block set in an apt ROS 2
+    workspace (``~/ros2_ws``) are marked with WORKSPACE (that shell is not the README's).
+    """
     with open(os.path.join(ROOT, rel), encoding='utf-8') as f:
         text = f.read()
     found = []
     for m in re.finditer(r'```(\w*)\n(.*?)```', text, re.S):
         if m.group(1) in ('bash', 'sh'):
-            for line in m.group(2).splitlines():
+            mark = WORKSPACE if '~/ros2_ws' in m.group(2) else ''
+            for line in re.sub(r'\\\n\s*', ' ', m.group(2)).splitlines():
                 line = re.sub(r'\s+#.*$', '', line).strip()
                 if line and not line.startswith('#'):
-                    found.append(line)
+                    found.append(mark + line)
     prose = re.sub(r'```.*?```', '', text, flags=re.S)
     for m in re.finditer(r'`([^`]+)`', prose):
         span = ' '.join(m.group(1).split())
@@ -142,9 +150,10 @@ def demo_closing_commands(out):
 
 def classify(line):
     """Return (class, the line to run) for a documented line (module docstring)."""
-    line = ENV_PREFIX.sub('', line)
+    workspace = line.startswith(WORKSPACE)
+    line = ENV_PREFIX.sub('', line[len(WORKSPACE):] if workspace else line)
     words = line.split()
-    if '<this repo>' in line or line.startswith(('cd ~/ros2_ws', 'pip install')):
+    if workspace and words[0] != 'ros2':
         return 'workspace', line
     if line == 'bash scripts/demo.sh':
         return 'demo', line
@@ -174,6 +183,7 @@ def classify(line):
 def demo():
     """Run ``bash scripts/demo.sh`` as the README prints it; return (status, output, bag)."""
     assert 'bash scripts/demo.sh' in markdown_commands('README.md')
+    assert 'bash scripts/test.sh' in markdown_commands('README.md')
     out = subprocess.run(['bash', '-c', 'bash scripts/demo.sh'], cwd=ROOT, env=_shell_env(),
                          capture_output=True, text=True, timeout=900)
     text = out.stdout + out.stderr
