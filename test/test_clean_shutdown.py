@@ -339,3 +339,55 @@ def test_nodes_stop_cleanly_during_a_move(graph, tmp_path):
         os.makedirs(tmp)
         failures += [f'round {i}: {p}' for p in _move_round(graph, rng, tmp, i)]
     assert not failures, '\n\n'.join(failures[:5]) + f'\n({len(failures)} problems)'
+
+
+#: rounds of the streaming-server test (30 with PX100_STRESS=full; main's code before the fix
+#: printed the [FATAL] line in 4 of 30 such rounds)
+STREAM_REPEATS = int(os.environ.get('PX100_SHUTDOWN_REPEATS')
+                     or (30 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 10))
+
+
+def test_trajectory_server_stops_cleanly_while_streaming(graph, tmp_path):
+    """
+    SIGINT (once or twice) lands on trajectory_server 0-50 ms into a streamed move.
+
+    The sharpest form of the launch case above: one driver keeps running, a fresh server is
+    started each round, gets a goal and is stopped while its 200 Hz setpoint timer publishes.
+    Every stop exits 0 with no [FATAL] line and no traceback.
+    """
+    rng = random.Random(f'stream/{STREAM_REPEATS}')
+    ns = f'/st_{os.getpid()}'
+    driver, driver_log = _start('sim_driver', ns, str(tmp_path), None, 'events')
+    watcher = _MoveWatcher(graph.context, ns)
+    failures = []
+    try:
+        for i in range(STREAM_REPEATS):
+            proc, log = _start('trajectory_server', ns, str(tmp_path), None, 'events')
+            start = watcher.setpoints
+            deadline = time.monotonic() + READY_TIMEOUT
+            while watcher.setpoints < start + 20 and time.monotonic() < deadline and \
+                    proc.poll() is None:
+                if watcher.setpoints == start:
+                    watcher.send_waist_move(3)
+                time.sleep(0.2)
+            streaming = watcher.setpoints >= start + 20
+            time.sleep(rng.uniform(0.0, 0.05))
+            _stop(proc, rng.choice(('sigint', 'sigint_twice')), rng)
+            try:
+                rc = proc.wait(30.0)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                rc = f'hung (killed), exit {proc.wait(10.0)}'
+            log.seek(0)
+            out = log.read().decode('utf-8', 'replace')
+            log.close()
+            bad = [b for b in BAD_OUTPUT if b in out]
+            if rc != 0 or bad or not streaming:
+                failures.append(f'round {i}: exit {rc}, {bad} in output, streaming '
+                                f'{streaming}\n{out[-1500:]}')
+    finally:
+        watcher.close()
+        driver.send_signal(signal.SIGINT)
+        driver.wait(30.0)
+        driver_log.close()
+    assert not failures, '\n\n'.join(failures[:5]) + f'\n({len(failures)} problems)'
