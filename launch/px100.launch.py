@@ -4,9 +4,12 @@ Launch the simulated arm: sim_driver, ik_service, trajectory_server, state_publi
 ``ros2 launch px100_control px100.launch.py robot_model:=px100 robot_name:=arm1 record:=true``
 
 Every node runs in the robot namespace ``/<robot_name>`` with the parameters of
-``params_file`` (default: the package's config/px100.yaml), then robot_model, robot_name and
-use_sim_time from the arguments. ``record:=true`` adds the recorder (the robot namespace and
-/diagnostics to a bag in the working directory), ``viewer:=true`` the browser viewer.
+``params_file`` (default: the package's config/nodes.yaml, which fits every robot: what depends
+on the robot comes from config/robots/<robot_model>.yaml), then robot_model, robot_name and
+use_sim_time from the arguments. ``use_sim_time:=true`` also makes sim_driver publish /clock
+(``publish_clock``), so the nodes have a clock to follow. ``record:=true`` adds the recorder
+(the robot namespace and /diagnostics to a bag in the working directory), ``viewer:=true`` the
+browser viewer.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
@@ -31,10 +34,12 @@ def generate_launch_description():
                               description='namespace of the nodes and tf frame prefix'),
         DeclareLaunchArgument('params_file',
                               default_value=PathJoinSubstitution(
-                                  [FindPackageShare(PACKAGE), 'config', 'px100.yaml']),
-                              description='ROS parameters file of the nodes'),
+                                  [FindPackageShare(PACKAGE), 'config', 'nodes.yaml']),
+                              description='ROS parameters file of the nodes (the default fits '
+                                          'every robot_model)'),
         DeclareLaunchArgument('use_sim_time', default_value='false',
-                              description='follow /clock instead of the system clock'),
+                              description='follow /clock, published by sim_driver '
+                                          '(publish_clock), instead of the system clock'),
         DeclareLaunchArgument('record', default_value='false',
                               description='also record the robot namespace to a bag'),
         DeclareLaunchArgument('viewer', default_value='false',
@@ -42,9 +47,12 @@ def generate_launch_description():
     ]
     parameters = [params_file, {'robot_model': robot_model, 'robot_name': robot_name,
                                 'use_sim_time': use_sim_time}]
-    nodes = [Node(package=PACKAGE, executable=exe, namespace=robot_name,
-                  parameters=parameters, output='screen')
-             for exe in ('sim_driver', 'ik_service', 'trajectory_server', 'state_publisher')]
+    # with use_sim_time the driver owns the clock and publishes /clock for every node
+    nodes = [Node(package=PACKAGE, executable='sim_driver', namespace=robot_name,
+                  parameters=parameters + [{'publish_clock': use_sim_time}], output='screen')]
+    nodes += [Node(package=PACKAGE, executable=exe, namespace=robot_name,
+                   parameters=parameters, output='screen')
+              for exe in ('ik_service', 'trajectory_server', 'state_publisher')]
     nodes.append(Node(package=PACKAGE, executable='record', namespace=robot_name,
                       parameters=parameters, output='screen',
                       condition=IfCondition(LaunchConfiguration('record'))))

@@ -327,8 +327,9 @@ IK_SERVICE = NodeSchema('ik_service', COMMON + (
 TRAJECTORY_PROFILES = ('trapezoidal', 'minimum_jerk', 'linear_max_step')
 
 TRAJECTORY_SERVER = NodeSchema('trajectory_server', COMMON + (
-    ParamSpec('rate', 'double', 200.0, 'setpoints to the driver [Hz] (read at start)',
-              low=0.0, above_low=True, high=10000.0),
+    ParamSpec('rate', 'double', 200.0, 'setpoints to the driver [Hz]; fixed at start (the '
+              'setpoint timer and the goals planned on its period)', low=0.0, above_low=True,
+              high=10000.0, read_only=True),
     ParamSpec('profile', 'string', 'trapezoidal', 'profile of a one-point goal',
               choices=TRAJECTORY_PROFILES),
     ParamSpec('moving_time', 'double', 2.0, 'duration of a one-point goal whose '

@@ -26,6 +26,7 @@ by up to M [m] (uniform in x and y, seeded) through a copy of the scene file.
 import argparse
 import math
 import os
+import shlex
 import sys
 import threading
 import time
@@ -466,6 +467,19 @@ def parse_targets(text: str) -> dict:
     return out
 
 
+def next_commands(bag_dir: str) -> list:
+    """
+    Return the closing lines that say how to look at the bag: commands that run as printed.
+
+    In the README's shell (after ``source scripts/env.sh`` the executables are commands), with
+    the ``ros2 run`` form for ROS 2 installs beside them.
+    """
+    env = shlex.quote(os.path.join(ROOT, 'scripts', 'env.sh'))
+    bag = shlex.quote(bag_dir)
+    return [f'next:  source {env} && inspect {bag}   # summary and plots of the bag',
+            f'       (with ROS 2: ros2 run px100_control inspect {bag})']
+
+
 def main(argv=None) -> int:
     """Run the demo; return the exit code (0 only when every object is placed)."""
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0],
@@ -613,9 +627,9 @@ def main(argv=None) -> int:
           f'{1000 * args.tolerance:g} mm in {time.monotonic() - started:.1f} s')
     if demo.failures:
         print(f'failed steps: {", ".join(demo.failures)}')
-    hint = f'   (summary, plots: ros2 run px100_control inspect {bag_dir})' \
-        if stop_bag is not None else ''
-    print(f'bag:   {bag_dir}{hint}')
+    print(f'bag:   {bag_dir}')
+    if stop_bag is not None:
+        print('\n'.join(next_commands(bag_dir)))
     for p in paths:
         print(f'plot:  {p}')
     if args.json:

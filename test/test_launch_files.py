@@ -3,8 +3,9 @@ The launch files (launch/px100.launch.py and .xml) and the environment hook, che
 
 The ``launch`` packages are not on PyPI, so the files are validated as data: the XML with
 ElementTree, the Python file compiled and its ``generate_launch_description`` read by AST.
-Both must declare robot_model, robot_name, params_file, use_sim_time, record and viewer, use
-every argument they declare and declare every one they use, start only executables that
+Both must declare robot_model, robot_name, params_file (default: config/nodes.yaml, which fits
+every robot), use_sim_time (wired to sim_driver's publish_clock) record and viewer, use every
+argument they declare and declare every one they use, start only executables that
 setup.py installs, put every node in ``robot_name``'s namespace, and switch the recorder and
 the viewer with their arguments. Where ``launch`` is importable the descriptions are also
 loaded and the Python one is run.
@@ -61,7 +62,7 @@ def test_launch_files_are_in_the_ament_index():
     share = get_package_share_directory('px100_control')
     for name in ('px100.launch.py', 'px100.launch.xml'):
         assert os.path.isfile(os.path.join(share, 'launch', name)), name
-    assert os.path.isfile(os.path.join(share, 'config', 'px100.yaml'))
+    assert os.path.isfile(os.path.join(share, 'config', 'nodes.yaml'))
 
 
 def _xml():
@@ -80,8 +81,9 @@ def test_xml_launch_file():
     used = set(re.findall(r'\$\(var (\w+)\)', text))
     assert used == ARGS, (used, ARGS)
     assert declared['robot_model'] == 'px100' and declared['robot_name'] == '$(var robot_model)'
-    assert declared['params_file'] == '$(find-pkg-share px100_control)/config/px100.yaml'
-    assert os.path.isfile(os.path.join(ROOT, 'config', 'px100.yaml'))
+    # a default that fits every robot_model (test/nodes/test_first_hour_nodes.py starts them)
+    assert declared['params_file'] == '$(find-pkg-share px100_control)/config/nodes.yaml'
+    assert os.path.isfile(os.path.join(ROOT, 'config', 'nodes.yaml'))
     assert declared['use_sim_time'] == declared['record'] == declared['viewer'] == 'false'
     found = {}
     for node in root.findall('node'):
@@ -92,8 +94,11 @@ def test_xml_launch_file():
         params = node.findall('param')
         assert params[0].get('from') == '$(var params_file)', exe
         given = {p.get('name'): p.get('value') for p in params[1:]}
-        assert given == {'robot_model': '$(var robot_model)', 'robot_name': '$(var robot_name)',
-                         'use_sim_time': '$(var use_sim_time)'}, exe
+        expected = {'robot_model': '$(var robot_model)', 'robot_name': '$(var robot_name)',
+                    'use_sim_time': '$(var use_sim_time)'}
+        if exe == 'sim_driver':     # use_sim_time: the driver publishes the /clock to follow
+            expected['publish_clock'] = '$(var use_sim_time)'
+        assert given == expected, exe
         if exe in SWITCHED:
             assert node.get('if') == f'$(var {SWITCHED[exe]})', exe
         else:
@@ -142,7 +147,7 @@ def test_python_launch_file():
         assert ast.literal_eval(declared[name]) == 'false', name
     assert ast.literal_eval(declared['robot_model']) == 'px100'
     default_params = ast.unparse(declared['params_file'])
-    assert "FindPackageShare(PACKAGE), 'config', 'px100.yaml'" in default_params
+    assert "FindPackageShare(PACKAGE), 'config', 'nodes.yaml'" in default_params
     assert ast.literal_eval(
         [n for n in tree.body if isinstance(n, ast.Assign)
          and getattr(n.targets[0], 'id', '') == 'PACKAGE'][0].value) == 'px100_control'
@@ -162,7 +167,11 @@ def test_python_launch_file():
         for name in names:
             found[name] = c
         assert ast.unparse(_kw(c, 'namespace')) == 'robot_name'
-        assert ast.unparse(_kw(c, 'parameters')) == 'parameters'
+        if names == ['sim_driver']:     # use_sim_time: the driver publishes /clock
+            assert ast.unparse(_kw(c, 'parameters')) == \
+                "parameters + [{'publish_clock': use_sim_time}]"
+        else:
+            assert ast.unparse(_kw(c, 'parameters')) == 'parameters'
         cond = _kw(c, 'condition')
         if isinstance(exe, ast.Constant) and exe.value in SWITCHED:
             assert ast.unparse(cond) == \

@@ -324,7 +324,6 @@ class InterbotixRobotXSCore:
         self._wait_for_peers()
         self._check_duplicates()
         self.js_index_map = {n: i for i, n in enumerate(self.joint_states.name)}
-        self._check_ik_mode()
         self.wait_for_recorder(recorder)
         self.get_node().loginfo(
             f'\n\tRobot Name: {self.robot_name}\n\tRobot Model: {self.robot_model}')
@@ -839,22 +838,6 @@ class InterbotixRobotXSCore:
                 ParameterType.PARAMETER_INTEGER: v.integer_value,
                 ParameterType.PARAMETER_DOUBLE: v.double_value,
                 ParameterType.PARAMETER_STRING: v.string_value}.get(v.type)
-
-    def _check_ik_mode(self) -> None:
-        """Warn when ik_service may answer a 4/5-DOF arm with roll-flipped configurations."""
-        if self.model.dof >= 6:
-            return
-        node = self._peer_node('ik/request', 'ik_service')
-        if node is None:
-            return
-        mode = self.get_remote_parameter(node, 'orientation_mode', timeout=1.0)
-        if mode == 'pitch':
-            self.get_node().logwarn(
-                f"{node} runs with orientation_mode 'pitch': for a {self.model.dof}-DOF arm it "
-                'answers with the roll-flipped ("over the top") configuration when no upright '
-                'one is in the joint limits, which the Interbotix API refuses (pose off by pi). '
-                'Start it with '
-                "'--ros-args -p orientation_mode:=strict' (bringup=True does this).")
 
     def find_node(self, name: str) -> Optional[str]:
         """Return the full name of a running node called ``name`` (robot namespace first)."""

@@ -23,9 +23,10 @@ from rclpy.parameter import Parameter
 
 #: parameters the client sets on the nodes it starts itself:
 #: - ik_service 'strict': the whole pose or nothing, which is what Interbotix's IK guarantees
-#:   (eomg/ev); in 'pitch' mode a 4-DOF arm is answered with the roll-flipped "over the top"
-#:   configuration (same tool x axis, gripper upside down) when no upright one is in the limits,
-#:   which the client would refuse;
+#:   (eomg/ev), so a refusal carries ik_service's reason; in 'pitch' mode (the nodes' default,
+#:   e.g. the bringup executable) a 4-DOF arm is answered with the roll-flipped "over the top"
+#:   configuration when no upright one is in the limits, which the client refuses itself: it
+#:   checks every answer against the target (eomg/ev), so either mode moves the arm the same;
 #: - trajectory_server path_tolerance 0.5 rad (default 0.2) and goal_time_tolerance 2 s
 #:   (default 1): the simulated servos track a move within ~0.02 rad and settle in a fraction of
 #:   a second, but on a loaded machine the simulation can fall behind the clock for a moment and

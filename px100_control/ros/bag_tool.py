@@ -2,15 +2,15 @@
 The command-line run of a bag tool (``record``, ``replay``): one node, one clear error line.
 
 Init rclpy, build the node, spin it until SIGINT/SIGTERM, a shutdown or the node is done, then
-tear down. A bad bag or option (:class:`px100_control.errors.Px100Error`) is one line
-``<prog>: error: ...`` on stderr and exit status 1; a stop signal while the node is being built
-is not an error.
+tear down. Bad ROS arguments, a bad bag or option (:class:`px100_control.errors.Px100Error`)
+is one line ``<prog>: error: ...`` on stderr and exit status 1; a stop signal while the node
+is being built is not an error.
 """
 import sys
 from typing import Callable, Optional, Sequence
 
 from px100_control.errors import Px100Error
-from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts,
+from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts, init_ros,
                                       install_stop_signals, keep_spinning, make_executor,
                                       shutdown_executor, shutting_down)
 import rclpy
@@ -32,7 +32,10 @@ def run_bag_tool(prog: str, argv: Sequence[str], build: Callable[[], Node],
     :param close: close(node), called before the node is destroyed
     """
     install_stop_signals()
-    rclpy.init(args=argv)
+    bad_args = init_ros(argv)
+    if bad_args:
+        print(f'{prog}: error: {bad_args}', file=sys.stderr)
+        return 1
     node = None
     executor = None
     result = 0

@@ -1,8 +1,9 @@
 """
 bringup: sim_driver, ik_service, trajectory_server and robot_state_publisher in one process.
 
-For machines without ``ros2 launch``: ``ros2 run px100_control bringup --ros-args -p
-robot_model:=px100 --params-file config/px100.yaml``. The ROS arguments apply to all four nodes
+For machines without ``ros2 launch``: ``bringup --ros-args -p robot_model:=px100
+--params-file config/px100.yaml`` after ``source scripts/env.sh`` (``ros2 run px100_control
+bringup ...`` with a ROS 2 install). The ROS arguments apply to all four nodes
 (a params file addresses each by its node name; robot_state_publisher is the
 ``state_publisher`` executable's node: live /tf); they spin in one executor
 (:func:`px100_control.ros.common.make_executor`: rclpy's EventsExecutor by default).
@@ -41,7 +42,7 @@ def create_nodes(viewer: bool = False, **node_kwargs) -> List:
 def _add_arguments(parser) -> None:
     parser.add_argument('--viewer', action='store_true',
                         help='also serve the browser viewer (http://127.0.0.1:8080; '
-                             '-p port:=N to change)')
+                             '--ros-args -p port:=N to change)')
 
 
 def main(args=None) -> int:

@@ -12,19 +12,24 @@ the node in ``/`` with unprefixed frames.
 """
 import argparse
 import os
+import re
 import signal
 import sys
 from typing import List, Optional, Sequence
 
+from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
 from px100_control.parameters import COMMON, NodeSchema
 from px100_control.ros.parameter_schema import parameter_descriptor
 import rclpy
 from rclpy import executors
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
+import rclpy.logging
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
 try:
@@ -112,27 +117,42 @@ def frame_id(node: Node, frame: str) -> str:
 
 
 def parse_cli(description: str, args: Optional[Sequence[str]] = None,
-              add_arguments=None, schemas: Sequence[NodeSchema] = ()
+              add_arguments=None, schemas: Sequence[NodeSchema] = (), example_args: str = ''
               ) -> (argparse.Namespace, List[str]):
     """
     Parse a node's command line: ``--help`` (with the nodes' parameters), own options, ROS args.
 
     :param schemas: the parameter schemas of the nodes this executable runs (``--help``)
+    :param example_args: the executable's own arguments in the ``example:`` line of ``--help``
+        (``BAG`` for replay); the line runs as printed once they are filled in
+    :raises SystemExit: status 1 with one line ``<prog>: error: <reason>`` when rcl refuses the
+        ROS arguments (argparse's own errors: status 2, as usual)
     :return: (parsed options, the full argv to hand to ``rclpy.init(args=...)``)
     """
     argv = list(sys.argv if args is None else args)
-    epilog = ('ROS arguments: --ros-args -r __ns:=/px100 -p robot_model:=px100 '
-              '--params-file config/px100.yaml -r joint_states:=js\n'
+    prog = argv[0].rsplit('/', 1)[-1] if argv else 'px100_control'
+    own = f'{prog} {example_args}'.strip()
+    epilog = ("ROS arguments (ROS 2's forms, after the options): --ros-args -p name:=value "
+              '--params-file FILE -r __ns:=/arm1 -r from:=to; an empty string is '
+              '-p "name:=\'\'" (rcl reads values as YAML)\n'
+              f'example: {own} --ros-args -r __ns:=/arm1 -p robot_model:=px150\n'
               'Nodes run in the robot namespace (/<robot_name>, default /px100) with relative '
               'names.')
     for schema in schemas:
         epilog += '\n\n' + schema.help_text()
     parser = argparse.ArgumentParser(
-        prog=argv[0].rsplit('/', 1)[-1] if argv else None, description=description,
+        prog=prog, description=description,
         epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
     if add_arguments is not None:
         add_arguments(parser)
-    options = parser.parse_args(remove_ros_args(argv)[1:])
+    try:
+        own = remove_ros_args(argv)[1:]
+    except Exception as exc:  # noqa: B902 - rcl's argument errors are one line, no traceback
+        reason = ros_args_error(exc)
+        if reason is None:
+            raise
+        parser.exit(1, f'{parser.prog}: error: {reason}\n')
+    options = parser.parse_args(own)
     return options, argv
 
 
@@ -182,14 +202,18 @@ def install_stop_signals() -> None:
     """
     Make SIGINT and SIGTERM stop a node's main loop without raising anywhere else.
 
-    Call in the main thread before ``rclpy.init``. rclpy's own handlers (installed by init)
-    shut the context down and then chain to these Python handlers, which only note the signal
-    (:func:`stop_requested`): Python's default SIGINT handler would raise KeyboardInterrupt at
-    an arbitrary point, e.g. inside a callback that rclpy's C++ EventsExecutor or a service's
-    ``__exit__`` runs, where pybind11 turns it into std::terminate (SIGABRT). After
-    ``rclpy.try_shutdown`` uninstalls rclpy's handlers, a second SIGINT (``ros2 launch`` sends
-    one to the process group and one of its own) or SIGTERM reaches these handlers only, so
-    the node's teardown (closing a bag, destroying entities) runs to its end.
+    Call in the main thread before ``rclpy.init``, and init with
+    ``signal_handler_options=SignalHandlerOptions.NO`` (:func:`init_ros` does): these handlers
+    only note the signal (:func:`stop_requested`); the main loop sees it within one
+    ``spin_once`` timeout, shuts the executor down (running callbacks finish), destroys the
+    nodes and only then shuts the context down. rclpy's own handlers would shut the context
+    down at once, inside the signal, while the executor still runs timer callbacks: a timer
+    publishing a setpoint then failed with "publisher's context is invalid" ([FATAL] in the
+    EventsExecutor, seen on Ctrl-C during a move under ``ros2 launch``). Python's default
+    SIGINT handler would raise KeyboardInterrupt at an arbitrary point, e.g. inside a callback
+    that rclpy's C++ EventsExecutor runs, where pybind11 turns it into std::terminate. A second
+    SIGINT (``ros2 launch`` sends one to the process group and one of its own) or SIGTERM is
+    noted the same way, so the teardown (closing a bag, destroying entities) runs to its end.
     """
     del _STOP_SIGNALS[:]
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -234,18 +258,107 @@ def shutdown_executor(executor) -> None:
         pass
 
 
+#: how long [s, steady] a node with use_sim_time waits for /clock before it warns
+CLOCK_WAIT_S = 3.0
+
+
+def warn_without_clock(node: Node, wait: float = CLOCK_WAIT_S) -> None:
+    """
+    Warn once when ``node`` follows ``/clock`` (use_sim_time) and none arrived after ``wait`` s.
+
+    Without a /clock publisher a node with use_sim_time sees time 0 forever: its timers on the
+    node clock never fire (joint_states stay silent) and nothing says why. The check runs on
+    the steady clock; ``sim_driver`` with ``publish_clock:=true`` is the usual /clock source.
+    """
+    if not (node.has_parameter('use_sim_time') and node.get_parameter('use_sim_time').value):
+        return
+    timer = None
+
+    def check():
+        timer.cancel()
+        if node.get_clock().now().nanoseconds == 0:
+            node.get_logger().warning(
+                f"use_sim_time is true but no /clock arrived in {wait:g} s: this node's time "
+                'stands still. Start sim_driver with --ros-args -p publish_clock:=true (launch: '
+                'use_sim_time:=true does this) or another /clock source')
+
+    timer = node.create_timer(wait, check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+
+def ros_args_error(exc: BaseException) -> Optional[str]:
+    """
+    Return a one-line reason when ``exc`` is rcl or rclpy refusing the ROS arguments (else None).
+
+    rclpy raises RCLError / UnknownROSArgsError / RCLInvalidROSArgsError (module
+    ``rclpy._rclpy_pybind11``) with rcl's source locations appended; the line keeps rcl's words
+    and the rule it could not parse. An empty value (``-p scene:=``: the shell ate ``''``) gets
+    the form rcl accepts, ``-p "scene:=''"``. rclpy's parameter exceptions (a value out of its
+    descriptor's range or of the wrong type, raised while a node declares it) are kept as
+    they read.
+    """
+    if type(exc).__module__ == 'rclpy.exceptions' and 'Parameter' in type(exc).__name__:
+        return ' '.join(str(exc).split())   # a -p value out of a descriptor's range or type
+    if type(exc).__module__ != 'rclpy._rclpy_pybind11':
+        return None
+    text = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    if type(exc).__name__ == 'UnknownROSArgsError':
+        return f'unknown ROS arguments {text} (see --help)'
+    text = text.replace('failed to initialize rcl: ', '')
+    text = re.sub(r'(, at /\S+:\d+)+$', '', text).replace('. Error: error not set', '')
+    empty = re.search(r"'-p ([^'\s]+):='", text)
+    if empty:
+        text += f' (an empty value is written -p "{empty.group(1)}:=\'\'")'
+    return f'invalid ROS arguments: {text}'
+
+
+def init_ros(argv: Sequence[str], **kwargs) -> Optional[str]:
+    """
+    ``rclpy.init(args=argv)``; return the one-line reason when rcl refuses the ROS arguments.
+
+    Without rclpy's signal handlers unless ``signal_handler_options`` says otherwise: a stop
+    signal is the main loop's to handle (:func:`install_stop_signals`). rcl's own "Failed to
+    parse global arguments" log line is silenced during the call, so a bad argument is exactly
+    the one line the caller prints.
+    """
+    rclpy.logging.set_logger_level('rcl', rclpy.logging.LoggingSeverity.FATAL)
+    try:
+        kwargs.setdefault('signal_handler_options', SignalHandlerOptions.NO)
+        rclpy.init(args=list(argv), **kwargs)
+    except Exception as exc:  # noqa: B902 - only rcl's argument errors are answered here
+        reason = ros_args_error(exc)
+        if reason is None:
+            raise
+        return reason
+    finally:
+        rclpy.logging.set_logger_level('rcl', rclpy.logging.LoggingSeverity.UNSET)
+    return None
+
+
+def prog_name(argv: Sequence[str]) -> str:
+    """Return the program name of an argv for error lines (``sim_driver``)."""
+    return os.path.basename(argv[0]) if argv else 'px100_control'
+
+
 def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> int:
     """
     Init rclpy, build nodes, spin them until SIGINT/SIGTERM/shutdown or ``done()``, tear down.
+
+    Bad ROS arguments (rcl's parse errors) and a node refusing its parameters, robot or scene
+    (:class:`~px100_control.errors.Px100Error`) end the process with one line ``<prog>: error:
+    <reason>`` on stderr and status 1, no traceback.
 
     :param build: callable() -> list of nodes (called after ``rclpy.init``)
     :param argv: full argv for ``rclpy.init`` (ROS arguments included)
     :param executor_kind: :func:`make_executor` kind (None: env ``PX100_EXECUTOR`` / events)
     :param done: optional callable(nodes) -> bool, True to stop spinning
-    :return: 0 (a stop signal during construction is not an error; other errors propagate)
+    :return: 0, or 1 after such an error (a stop signal during construction is not an error;
+        other errors propagate)
     """
     install_stop_signals()
-    rclpy.init(args=argv)
+    bad_args = init_ros(argv)
+    if bad_args:
+        print(f'{prog_name(argv)}: error: {bad_args}', file=sys.stderr)
+        return 1
     nodes: List[Node] = []
     executor = None
     try:
@@ -254,12 +367,20 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
             # fails half way and its __del__ prints a traceback
             executor = make_executor(kind=executor_kind)
             nodes = list(build())
-        except Exception:
+        except Px100Error as exc:
+            print(f'{prog_name(argv)}: error: {exc}', file=sys.stderr)
+            return 1
+        except Exception as exc:  # noqa: B902 - a signal may interrupt construction anywhere
             if shutting_down():
                 return 0
-            raise
+            reason = ros_args_error(exc)
+            if reason is None:
+                raise
+            print(f'{prog_name(argv)}: error: {reason}', file=sys.stderr)
+            return 1
         for node in nodes:
             executor.add_node(node)
+            warn_without_clock(node)
         # spin_once in a loop, not spin(): rclpy 7.1's EventsExecutor.spin() does not return
         # when SIGINT shuts the context down
         while keep_spinning() and not (done is not None and done(nodes)):

@@ -283,7 +283,7 @@ def main(args=None) -> int:
     """Replay a bag; exit 0 when it is done (or interrupted), 1 with a clear error otherwise."""
     argv, remaps = extract_remaps(sys.argv if args is None else args)
     options, argv = parse_cli('Publish a recorded bag into the ROS graph with its timing.',
-                              argv, add_replay_arguments, (REPLAYER,))
+                              argv, add_replay_arguments, (REPLAYER,), example_args='BAG')
     return run_bag_tool('replay', argv, lambda: ReplayerNode(
         options.bag, rate=options.rate, loop=options.loop, topics=options.topics,
         remap=remaps, start_offset=options.start_offset, delay=options.delay,

@@ -18,7 +18,8 @@ height (axis along the body's z), sphere = radius; mass [kg]; friction = sliding
 rgba 4 floats in 0..1. ``table`` is optional and is always a box.
 
 :func:`load_scene` validates everything and raises
-:class:`~px100_control.errors.InvalidInputError` naming the file and field: unknown keys,
+:class:`~px100_control.errors.InvalidInputError` naming the file and every wrong field (one line
+each): unknown keys,
 missing or non-numeric values, NaN/inf, non-positive sizes or masses, duplicate names,
 overlapping bodies (bounding boxes, 0.1 mm tolerance so resting contact is allowed), and, with
 ``robot`` given, objects out of the robot's reach (:func:`check_reach`).
@@ -28,7 +29,7 @@ import functools
 import math
 import os
 import re
-from typing import Optional, Sequence, Tuple
+from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 from px100_control.errors import InvalidInputError
@@ -171,56 +172,88 @@ def _numbers(where: str, value, count: Optional[int] = None) -> Tuple[float, ...
     return tuple(out)
 
 
-def _check_keys(where: str, raw, allowed: set, not_a_mapping: str) -> None:
-    """Raise InvalidInputError(not_a_mapping) unless raw is a dict, and on keys not allowed."""
-    if not isinstance(raw, dict):
-        raise InvalidInputError(not_a_mapping)
+def _unknown_keys(where: str, raw: dict, allowed: set) -> Optional[str]:
+    """Return the problem of keys not in ``allowed`` (None when there are none)."""
     unknown = sorted(set(raw) - allowed)
     if unknown:
-        raise InvalidInputError(f'{where}: unknown key(s) {unknown} (allowed: '
-                                f'{sorted(allowed)})')
+        return f'{where}: unknown key(s) {unknown} (allowed: {sorted(allowed)})'
+    return None
 
 
-def _body(where: str, raw, kind: str) -> SceneBody:
-    _check_keys(where, raw, _BODY_KEYS, f'{where} must be a mapping, not {raw!r}')
-    name = raw.get('name', 'table' if kind == 'table' else None)
-    if not isinstance(name, str) or not _NAME.match(name):
-        raise InvalidInputError(f'{where}.name must be an identifier (letters, digits, _), '
-                                f'not {name!r}')
-    where = f'{where} ({name})'
-    shape = raw.get('shape', 'box')
-    if shape not in SHAPES or (kind == 'table' and shape != 'box'):
-        allowed = ['box'] if kind == 'table' else list(SHAPES)
-        raise InvalidInputError(f'{where}.shape must be one of {allowed}, not {shape!r}')
-    if 'size' not in raw:
-        raise InvalidInputError(f'{where}.size is missing')
-    size = _numbers(f'{where}.size', raw['size'], SHAPES[shape])
-    if any(s <= 0.0 for s in size):
-        raise InvalidInputError(f'{where}.size must be positive, not {list(size)}')
-    if kind == 'object':
-        if 'mass' not in raw:
-            raise InvalidInputError(f'{where}.mass is missing')
-        mass = _numbers(f'{where}.mass', raw['mass'], 1)[0]
-        if mass <= 0.0:
-            raise InvalidInputError(f'{where}.mass must be positive, not {mass}')
-    elif 'mass' in raw:
-        raise InvalidInputError(f'{where}.mass: a {kind} is static and has no mass')
-    else:
-        mass = 0.0
-    friction = _numbers(f'{where}.friction', raw.get('friction', 1.0), 1)[0]
-    if friction <= 0.0:
-        raise InvalidInputError(f'{where}.friction must be positive, not {friction}')
+def _field(problems: List[str], check: Callable[[], Any]) -> Any:
+    """Return ``check()``; on InvalidInputError add its text to ``problems`` and return None."""
+    try:
+        return check()
+    except InvalidInputError as exc:
+        problems.append(str(exc))
+        return None
+
+
+def _positive(where: str, values: Tuple[float, ...], what: str) -> Tuple[float, ...]:
+    if any(v <= 0.0 for v in values):
+        shown = list(values) if len(values) > 1 else values[0]
+        raise InvalidInputError(f'{where}.{what} must be positive, not {shown}')
+    return values
+
+
+def _required(where: str, raw: dict, key: str):
+    if key not in raw:
+        raise InvalidInputError(f'{where}.{key} is missing')
+    return raw[key]
+
+
+def _mass(where: str, raw: dict, kind: str) -> float:
+    if kind != 'object':
+        if 'mass' in raw:
+            raise InvalidInputError(f'{where}.mass: a {kind} is static and has no mass')
+        return 0.0
+    return _positive(where, _numbers(f'{where}.mass', _required(where, raw, 'mass'), 1),
+                     'mass')[0]
+
+
+def _rgba(where: str, raw: dict, kind: str) -> Tuple[float, ...]:
     rgba = _numbers(f'{where}.rgba', raw.get('rgba', _DEFAULT_RGBA[kind]), 4)
     if any(c < 0.0 or c > 1.0 for c in rgba):
         raise InvalidInputError(f'{where}.rgba values must be in 0..1, not {list(rgba)}')
-    if 'position' not in raw:
-        raise InvalidInputError(f'{where}.position is missing')
-    position = _numbers(f'{where}.position', raw['position'], 3)
-    rpy = _numbers(f'{where}.rpy', raw.get('rpy', (0.0, 0.0, 0.0)), 3)
-    return SceneBody(name, kind, shape, size, mass, friction, rgba, position, rpy)
+    return rgba
 
 
-def _check_overlaps(label: str, bodies: Sequence[SceneBody]) -> None:
+def _body(where: str, raw, kind: str, problems: List[str]) -> Optional[SceneBody]:
+    """Return the body of ``raw``, or None after adding every wrong field to ``problems``."""
+    if not isinstance(raw, dict):
+        problems.append(f'{where} must be a mapping, not {raw!r}')
+        return None
+    count = len(problems)
+    problems += [p for p in [_unknown_keys(where, raw, _BODY_KEYS)] if p]
+    name = raw.get('name', 'table' if kind == 'table' else None)
+    if not isinstance(name, str) or not _NAME.match(name):
+        problems.append(f'{where}.name must be an identifier (letters, digits, _), '
+                        f'not {name!r}')
+    else:
+        where = f'{where} ({name})'
+    shape = raw.get('shape', 'box')
+    size = None
+    if shape not in SHAPES or (kind == 'table' and shape != 'box'):
+        allowed = ['box'] if kind == 'table' else list(SHAPES)
+        problems.append(f'{where}.shape must be one of {allowed}, not {shape!r}')
+    else:
+        size = _field(problems, lambda: _positive(where, _numbers(
+            f'{where}.size', _required(where, raw, 'size'), SHAPES[shape]), 'size'))
+    mass = _field(problems, lambda: _mass(where, raw, kind))
+    friction = _field(problems, lambda: _positive(where, _numbers(
+        f'{where}.friction', raw.get('friction', 1.0), 1), 'friction'))
+    rgba = _field(problems, lambda: _rgba(where, raw, kind))
+    position = _field(problems, lambda: _numbers(
+        f'{where}.position', _required(where, raw, 'position'), 3))
+    rpy = _field(problems, lambda: _numbers(f'{where}.rpy', raw.get('rpy', (0.0, 0.0, 0.0)), 3))
+    if len(problems) > count:
+        return None
+    return SceneBody(name, kind, shape, size, mass, friction[0], rgba, position, rpy)
+
+
+def _overlaps(label: str, bodies: Sequence[SceneBody]) -> List[str]:
+    """Return one problem per pair of bodies (one of them an object) that interpenetrate."""
+    problems = []
     boxes = [(b, np.array(b.position), b.half_extents()) for b in bodies]
     for i, (a, pa, ha) in enumerate(boxes):
         for b, pb, hb in boxes[i + 1:]:
@@ -228,44 +261,59 @@ def _check_overlaps(label: str, bodies: Sequence[SceneBody]) -> None:
                 continue        # static parts may touch or interlock (walls on a table)
             depth = (ha + hb) - np.abs(pa - pb)
             if np.all(depth > OVERLAP_TOLERANCE):
-                raise InvalidInputError(
+                problems.append(
                     f"{label}: bodies '{a.name}' and '{b.name}' overlap (bounding boxes "
                     f'interpenetrate by {1000 * float(depth.min()):.1f} mm); move '
                     f"'{b.name if b.kind == 'object' else a.name}'.position")
+    return problems
 
 
 def parse_scene(data, path: str = '<scene>', robot=None) -> Scene:
     """
     Return the Scene of already-parsed YAML data (see :func:`load_scene`).
 
-    :raises InvalidInputError: naming the field that is wrong
+    Every wrong field of the file is found, not only the first: the error holds one line per
+    problem (the first line alone when there is one).
+
+    :raises InvalidInputError: naming each field that is wrong
     """
     label = os.path.basename(path)
-    _check_keys(label, data, _TOP_KEYS,
-                f'{label}: a scene file must be a mapping, not {type(data)}')
+    if not isinstance(data, dict):
+        raise InvalidInputError(f'{label}: a scene file must be a mapping, not {type(data)}')
+    problems = [p for p in [_unknown_keys(label, data, _TOP_KEYS)] if p]
     name = data.get('name', os.path.splitext(label)[0])
     if not isinstance(name, str) or not name:
-        raise InvalidInputError(f'{label}: name must be a string, not {name!r}')
+        problems.append(f'{label}: name must be a string, not {name!r}')
     bodies = []
     if data.get('table') is not None:
-        bodies.append(_body(f'{label}: table', data['table'], 'table'))
+        bodies.append(_body(f'{label}: table', data['table'], 'table', problems))
     for key, kind in (('fixtures', 'fixture'), ('objects', 'object')):
         items = data.get(key) or []
         if not isinstance(items, list):
-            raise InvalidInputError(f'{label}: {key} must be a list, not {items!r}')
-        for i, raw in enumerate(items):
-            bodies.append(_body(f'{label}: {key}[{i}]', raw, kind))
-    seen = set()
-    for b in bodies:
-        if b.name in seen:
-            raise InvalidInputError(f"{label}: duplicate body name '{b.name}'")
-        seen.add(b.name)
-    _check_overlaps(label, bodies)
+            problems.append(f'{label}: {key} must be a list, not {items!r}')
+            continue
+        bodies += [_body(f'{label}: {key}[{i}]', raw, kind, problems)
+                   for i, raw in enumerate(items)]
+    bodies = [b for b in bodies if b is not None]
+    names = [b.name for b in bodies]
+    problems += [f"{label}: duplicate body name '{n}'"
+                 for n in sorted({n for n in names if names.count(n) > 1})]
+    problems += _overlaps(label, bodies)
     scene = Scene(name=name, path=path, bodies=tuple(bodies),
                   description=str(data.get('description', '')))
-    if robot is not None:
-        check_reach(scene, robot)
+    if robot is not None and not problems:
+        problems += reach_problems(scene, robot)
+    if problems:
+        raise InvalidInputError(_summary(path, problems))
     return scene
+
+
+def _summary(path: str, problems: List[str]) -> str:
+    """Return one line for one problem, else a count line and one indented line per problem."""
+    if len(problems) == 1:
+        return problems[0]
+    return f'scene {path}: {len(problems)} problems:\n' + '\n'.join(
+        f'  {p}' for p in problems)
 
 
 def load_scene(name_or_path: str, robot=None) -> Scene:
@@ -273,14 +321,17 @@ def load_scene(name_or_path: str, robot=None) -> Scene:
     Return the validated Scene of a name in config/scenes or a path to a .yaml file.
 
     :param robot: a RobotModel; if given, every object must be within its reach
-    :raises InvalidInputError: unknown file, unreadable YAML, or a bad field (named)
+    :raises InvalidInputError: unknown file, unreadable YAML, or the wrong fields (each named)
     """
     path = scene_path(name_or_path)
     try:
         with open(path, encoding='utf-8') as f:
             data = yaml.safe_load(f)
     except yaml.YAMLError as exc:
-        raise InvalidInputError(f'{path}: not valid YAML ({exc})') from exc
+        mark = getattr(exc, 'problem_mark', None)
+        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
+        what = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
+        raise InvalidInputError(f'{path}: not valid YAML{where}: {what}') from exc
     return parse_scene(data, path, robot)
 
 
@@ -305,16 +356,25 @@ def reach_margin(model, position: Sequence[float], band: float = 0.04) -> float:
     return reach - math.hypot(float(position[0]), float(position[1]))
 
 
-def check_reach(scene: Scene, model, margin: float = 0.01) -> None:
+def reach_problems(scene: Scene, model, margin: float = 0.01) -> List[str]:
     """
-    Raise InvalidInputError if an object of the scene is out of the robot's reach.
+    Return one problem per object of the scene out of the robot's reach.
 
     :param margin: [m] an object's centre must lie this far inside the reach
     """
+    problems = []
     for b in scene.objects:
         m = reach_margin(model, b.position)
         if m < margin:
-            raise InvalidInputError(
+            problems.append(
                 f"scene '{scene.name}': object '{b.name}'.position {list(b.position)} is out "
                 f"of reach of robot '{model.name}' ({-m * 1000:.0f} mm beyond its reach at "
                 f'that height, margin {margin * 1000:.0f} mm)')
+    return problems
+
+
+def check_reach(scene: Scene, model, margin: float = 0.01) -> None:
+    """Raise InvalidInputError naming every object of the scene out of the robot's reach."""
+    problems = reach_problems(scene, model, margin)
+    if problems:
+        raise InvalidInputError(_summary(scene.path, problems))

@@ -100,3 +100,30 @@ def test_unknown_and_broken_files(tmp_path):
     bad.write_text('- 1\n- 2\n')
     with pytest.raises(InvalidInputError, match='must be a mapping'):
         load_scene(str(bad))
+
+
+def test_every_wrong_field_is_named_one_line_each(raw, px100):
+    """Three wrong fields in two bodies and an unknown top key: all four named, one per line."""
+    data = _mutate(raw, ('objects', 0, 'size'), [0.03, math.nan, 0.03])
+    data = _mutate(data, ('objects', 1, 'mass'), 0.0)
+    data = _mutate(data, ('objects', 1, 'rgba'), [1, 0, 0, 2])
+    data = _mutate(data, ('lighting',), 'dim')
+    with pytest.raises(InvalidInputError) as err:
+        parse_scene(data, 'pick_place.yaml', px100)
+    lines = str(err.value).splitlines()
+    assert lines[0] == 'scene pick_place.yaml: 4 problems:', lines
+    for words in ("unknown key(s) ['lighting']", 'objects[0] (red_cube).size contains NaN',
+                  'objects[1] (green_cube).mass must be positive',
+                  'objects[1] (green_cube).rgba values must be in 0..1'):
+        assert sum(words in line for line in lines[1:]) == 1, (words, lines)
+    assert len(lines) == 5
+
+
+def test_bad_yaml_is_one_line(tmp_path):
+    """A YAML syntax error is named with its line and column, on one line."""
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('objects:\n  - {name: a, size: [0.02\n')
+    with pytest.raises(InvalidInputError) as err:
+        load_scene(str(bad))
+    assert len(str(err.value).splitlines()) == 1, str(err.value)
+    assert 'not valid YAML at line' in str(err.value)
