@@ -534,6 +534,9 @@ def main(argv=None) -> int:
 
     from px100_control.bag.world import format_placements, placement_verdict
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
+    from px100_control.errors import Px100Error
+    from px100_control.models.registry import load_robot
+    from px100_control.sim.scene import load_scene
 
     out_dir = os.path.abspath(args.out)
     os.makedirs(out_dir, exist_ok=True)
@@ -543,6 +546,10 @@ def main(argv=None) -> int:
     except ValueError as exc:
         parser.error(str(exc))
     scene = args.scene
+    try:        # a bad scene is one line here, before any node starts
+        load_scene(scene, robot=load_robot('px100'))
+    except (Px100Error, OSError, ValueError) as exc:
+        parser.error(f'--scene {scene}: {exc}')
     if args.jitter:
         scene = jittered_scene(scene, args.jitter, args.seed, out_dir)
         print(f'scene with objects jittered by up to {1000 * args.jitter:g} mm '

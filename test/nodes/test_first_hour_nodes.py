@@ -8,6 +8,7 @@ parameter services, topics over DDS.
 import os
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -71,6 +72,17 @@ def test_malformed_scene_names_every_wrong_field(tmp_path):
                   'objects[1] (b).mass must be positive', 'objects[1] (b).position needs 3'):
         assert sum(words in line for line in lines[1:]) == 1, (words, out)
     assert len(lines) == 6, out
+
+
+def test_demo_refuses_a_bad_scene_in_one_line(tmp_path):
+    """The demo checks --scene before any node starts: one usage line, exit 2, no traceback."""
+    demo = os.path.join(ROOT, 'scripts', 'pick_and_place_demo.py')
+    run = subprocess.run([sys.executable, demo, '--scene', 'no_such_scene', '--out',
+                          str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and 'Traceback' not in run.stderr, run.stderr
+    assert run.stderr.strip().splitlines()[-1].startswith(
+        "pick_and_place_demo.py: error: --scene no_such_scene: unknown scene 'no_such_scene'"), \
+        run.stderr
 
 
 def _launch_params_file():
