@@ -16,6 +16,7 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 from px100_control.errors import InvalidInputError
+from px100_control.parameters import PC_FILTER
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
@@ -58,13 +59,9 @@ class FilterParams:
         return checked(replace(self, **changes))
 
 
-#: (lower, upper) bound of each number parameter; None = unbounded on that side
-BOUNDS = {
-    'voxel_leaf_size': (1e-4, 0.1), 'plane_max_iter': (1, 100000),
-    'plane_dist_thresh': (0.0, 0.5), 'ror_radius_search': (1e-4, 0.5),
-    'ror_min_neighbors': (0, 10000), 'cluster_tol': (1e-4, 0.5),
-    'cluster_min_size': (1, 10 ** 7), 'cluster_max_size': (1, 10 ** 7),
-}
+#: (lower, upper) bound of each number parameter, from the node's schema (written once)
+BOUNDS = {spec.name: (spec.low, spec.high) for spec in PC_FILTER.params
+          if spec.kind in ('double', 'integer')}
 
 
 def params_error(p: FilterParams) -> Optional[str]:
