@@ -112,6 +112,8 @@ class FilterResult:
     objects: np.ndarray           # points after plane and outlier removal (M, 3)
     plane: Optional[np.ndarray]   # (a, b, c, d) with a x + b y + c z + d = 0, |(a, b, c)| = 1
     reason: str = ''              # why the pipeline stopped early ('' when it ran through)
+    filtered_rgb: Optional[np.ndarray] = None   # colours of ``filtered`` (N, 3), 0..255
+    objects_rgb: Optional[np.ndarray] = None    # colours of ``objects`` (M, 3), 0..255
 
 
 def crop_box(points: np.ndarray, p: FilterParams) -> np.ndarray:
@@ -205,18 +207,20 @@ def run_pipeline(points: np.ndarray, colors: np.ndarray, params: FilterParams,
     empty = np.zeros((0, 3))
     inside = crop_box(points, params)
     if not np.any(inside):
-        return FilterResult([], empty, empty, None, 'no point inside the crop box')
+        return FilterResult([], empty, empty, None, 'no point inside the crop box', empty, empty)
     pts, rgb = voxel_grid(points[inside], colors[inside], params.voxel_leaf_size)
     if len(pts) < 4:
-        return FilterResult([], pts, empty, None, 'fewer than 4 points after the voxel grid')
+        return FilterResult([], pts, empty, None, 'fewer than 4 points after the voxel grid',
+                            rgb, empty)
     plane, on_plane = fit_plane(pts, params.plane_max_iter, params.plane_dist_thresh, rng)
     rest, rest_rgb = pts[~on_plane], rgb[~on_plane]
     if len(rest) == 0:
-        return FilterResult([], pts, empty, plane, 'nothing left off the plane')
+        return FilterResult([], pts, empty, plane, 'nothing left off the plane', rgb, empty)
     keep = radius_outliers(rest, params.ror_radius_search, params.ror_min_neighbors)
     rest, rest_rgb = rest[keep], rest_rgb[keep]
     if len(rest) == 0:
-        return FilterResult([], pts, rest, plane, 'every point off the plane was an outlier')
+        return FilterResult([], pts, rest, plane, 'every point off the plane was an outlier',
+                            rgb, rest_rgb)
     clusters = []
     for idx in euclidean_clusters(rest, params.cluster_tol, params.cluster_min_size,
                                   params.cluster_max_size):
@@ -224,4 +228,4 @@ def run_pipeline(points: np.ndarray, colors: np.ndarray, params: FilterParams,
         top = cp[int(np.argmin(cp[:, 2]))]
         clusters.append(Cluster(tuple(cp.mean(axis=0)), tuple(rest_rgb[idx].mean(axis=0)),
                                 tuple(top), len(idx)))
-    return FilterResult(clusters, pts, rest, plane)
+    return FilterResult(clusters, pts, rest, plane, '', rgb, rest_rgb)

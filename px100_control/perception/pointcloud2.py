@@ -67,29 +67,29 @@ def decode(fields: Sequence[Field], point_step: int, data: bytes, width: int, he
         raise InvalidInputError(f'PointCloud2 data has {len(data)} bytes; width {width}, height '
                                 f'{height}, point_step {point_step}, row_step {row_step} need '
                                 f'{row_step * height}')
-    buf = np.frombuffer(data, dtype=np.uint8, count=row_step * (height - 1) + width * point_step)
-    rows = [buf[r * row_step:r * row_step + width * point_step] for r in range(height)]
-    raw = (np.concatenate(rows) if height > 1 else rows[0]).reshape(n, point_step)
+    wanted = [k for k in ('x', 'y', 'z', 'rgb', 'rgba', 'r', 'g', 'b') if k in layout]
+    formats = ['<u4' if k in ('rgb', 'rgba') else layout[k][1] for k in wanted]
+    record = np.dtype({'names': wanted, 'formats': formats, 'itemsize': point_step,
+                       'offsets': [layout[k][0] for k in wanted]})
+    if row_step == width * point_step:
+        rec = np.frombuffer(data, dtype=record, count=n)
+    else:                             # padded rows: one view per row
+        rec = np.concatenate([np.frombuffer(data, dtype=record, count=width,
+                                            offset=r * row_step) for r in range(height)])
+    points = np.column_stack([rec[k].astype(np.float64) for k in 'xyz'])
+    return points, _colours(rec, n)
 
-    def column(name):
-        offset, dtype = layout[name]
-        size = np.dtype(dtype).itemsize
-        return raw[:, offset:offset + size].copy().view(dtype).ravel()
 
-    points = np.column_stack([column(k).astype(np.float64) for k in 'xyz'])
-    return points, _colours(layout, raw, column, n)
-
-
-def _colours(layout: dict, raw: np.ndarray, column, n: int) -> np.ndarray:
+def _colours(rec: np.ndarray, n: int) -> np.ndarray:
     """Return the (N, 3) uint8 colours of a packed rgb/rgba field or r, g, b fields (else 0)."""
-    packed = 'rgb' if 'rgb' in layout else ('rgba' if 'rgba' in layout else None)
+    names = rec.dtype.names
+    packed = 'rgb' if 'rgb' in names else ('rgba' if 'rgba' in names else None)
     if packed is not None:
-        offset, _ = layout[packed]
-        word = raw[:, offset:offset + 4].copy().view('<u4').ravel()
+        word = rec[packed]
         return np.column_stack([(word >> 16) & 255, (word >> 8) & 255,
                                 word & 255]).astype(np.uint8)
-    if all(k in layout for k in 'rgb'):
-        return np.column_stack([column(k) for k in 'rgb']).astype(np.uint8)
+    if all(k in names for k in 'rgb'):
+        return np.column_stack([rec[k] for k in 'rgb']).astype(np.uint8)
     return np.zeros((n, 3), dtype=np.uint8)
 
 

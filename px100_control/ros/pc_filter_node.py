@@ -177,11 +177,11 @@ class PcFilterNode(Node):
         header = msg.header
         if len(result.filtered):
             self._pub_filtered.publish(cloud_message(header, result.filtered,
-                                                     np.zeros_like(result.filtered)))
+                                                     result.filtered_rgb))
             self._pub_crop.publish(crop_box_marker(self._params, header))
         if len(result.objects):
             self._pub_objects.publish(cloud_message(header, result.objects,
-                                                    np.zeros_like(result.objects)))
+                                                    result.objects_rgb))
         for marker in object_markers(result.clusters, header):
             self._pub_markers.publish(marker)
         self._infos = cluster_infos(result.clusters, header.frame_id)

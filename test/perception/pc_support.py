@@ -52,6 +52,7 @@ class PcClient(Node):
         self.lock = threading.Lock()
         self.diagnostics = []
         self.objects = 0
+        self.last_objects = None
         self.pub = self.create_publisher(PointCloud2, CLOUD_TOPIC, QoSProfile(
             depth=1, reliability=ReliabilityPolicy.RELIABLE))
         self.set_params = self.create_client(FilterParams, '/pc_filter/set_filter_params')
@@ -69,6 +70,7 @@ class PcClient(Node):
     def _on_objects(self, msg):
         with self.lock:
             self.objects += 1
+            self.last_objects = msg
 
     def ready(self) -> bool:
         """Return True once the services are up and the cloud subscriber is matched."""

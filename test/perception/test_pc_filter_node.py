@@ -12,7 +12,8 @@ import numpy as np
 from pc_support import (CAMERA_FRAME, close, float32_scene, PcClient, scene_cloud,
                         STARTUP_TIMEOUT, wait_for)
 from px100_control.perception.cloud_filter import FilterParams, run_pipeline
-from px100_control.ros.pc_filter_messages import params_of_request, request_of_params
+from px100_control.ros.pc_filter_messages import (cloud_arrays, params_of_request,
+                                                  request_of_params)
 import pytest
 from rclpy.executors import SingleThreadedExecutor
 from std_srvs.srv import SetBool
@@ -74,6 +75,10 @@ def test_clusters_of_a_published_cloud_within_2_mm(fresh):
                                    atol=1e-3)
         assert info.min_z_point.z == pytest.approx(0.6 - box[3], abs=0.003)
         assert info.yaw == 0.0
+    assert wait_for(lambda: client.last_objects is not None, 10.0)
+    objects, rgb = cloud_arrays(client.last_objects)        # the boxes' points, their colours
+    assert len(objects) == sum(c.num_points for c in found)
+    assert {tuple(c) for c in rgb} == {(220, 30, 30), (30, 200, 60)}
 
 
 def test_set_filter_params_changes_the_result(fresh):
