@@ -9,6 +9,8 @@ import numpy as np
 from px100_control.perception.cloud_filter import FilterParams as Params
 from px100_control.ros.pc_filter_messages import cloud_message, request_of_params
 from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
@@ -59,6 +61,7 @@ class PcClient(Node):
         self.get_clusters = self.create_client(ClusterInfoArray,
                                                '/pc_filter/get_cluster_positions')
         self.enable = self.create_client(SetBool, '/pc_filter/enable_pipeline')
+        self.params = AsyncParameterClient(self, '/pc_filter/pointcloud_pipeline')
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 50)
         self.create_subscription(PointCloud2, '/pc_filter/pointcloud/objects', self._on_objects,
                                  10)
@@ -87,6 +90,19 @@ class PcClient(Node):
     def clusters(self):
         """Return the clusters get_cluster_positions answers now."""
         return list(self.call(self.get_clusters, ClusterInfoArray.Request()).clusters)
+
+    def parameter(self, name: str):
+        """Return the node's ROS parameter ``name`` (rcl_interfaces ParameterValue's value)."""
+        fut = self.params.get_parameters([name])
+        assert wait_for(fut.done, 20.0), f'get_parameters {name}: no answer'
+        v = fut.result().values[0]
+        return v.double_value if v.type == 3 else v.integer_value
+
+    def set_parameter(self, name: str, value):
+        """Set one ROS parameter of the node; return its SetParametersResult."""
+        fut = self.params.set_parameters([Parameter(name, value=value)])
+        assert wait_for(fut.done, 20.0), f'set_parameters {name}: no answer'
+        return fut.result().results[0]
 
     def send_params(self, params: Params) -> None:
         """Call set_filter_params with every value of ``params``."""

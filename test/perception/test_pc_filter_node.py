@@ -111,6 +111,14 @@ def test_bad_parameter_set_is_refused_every_one_named_and_the_old_kept(fresh):
     after = client.clusters()
     assert [(c.position.x, c.num_points) for c in after] == \
         [(c.position.x, c.num_points) for c in before]
+    assert client.parameter('cluster_tol') == pytest.approx(0.015)   # the accepted set
+    assert client.parameter('voxel_leaf_size') == pytest.approx(0.004)
+    # ros2 param set is checked the same way: x_filter_min above x_filter_max is refused
+    result = client.set_parameter('x_filter_min', 0.5)
+    assert not result.successful and 'x_filter_min (0.5) must be below x_filter_max' in \
+        result.reason, result.reason
+    assert client.parameter('x_filter_min') == pytest.approx(-0.25)
+    assert client.set_parameter('plane_max_iter', 0).successful is False
 
 
 def test_pipeline_disabled_computes_on_demand_only(fresh):
