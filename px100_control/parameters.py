@@ -390,8 +390,9 @@ PC_FILTER = NodeSchema('pointcloud_pipeline', (
               'default cloud_topic is /<robot_name>/camera/depth/color/points', read_only=True),
     ParamSpec('cloud_topic', 'string', '', "PointCloud2 to filter; '' = "
               '/<robot_name>/camera/depth/color/points', read_only=True),
-    ParamSpec('enable_pipeline', 'bool', True, 'filter every cloud as it arrives (false: only '
-              'when get_cluster_positions is called); the enable_pipeline service sets it'),
+    ParamSpec('enable_pipeline', 'bool', False, 'filter every cloud as it arrives (false, as '
+              "Interbotix's pc_filter launch file: only when get_cluster_positions is called); "
+              'the enable_pipeline service sets it'),
 ) + tuple(ParamSpec(f'{axis}_filter_{end}', 'double', default, f'crop box {end} {axis} in the '
                     'cloud frame [m]', low=-CROP_LIMIT, high=CROP_LIMIT)
           for axis, lo, hi in (('x', -0.25, 0.25), ('y', -0.25, 0.25), ('z', 0.25, 0.75))
