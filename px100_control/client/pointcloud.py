@@ -29,6 +29,7 @@ Differences from Interbotix (documented, on purpose):
   own node); ``get_filepath()`` is the ``filter_params`` parameter of the node if declared,
   else the package's ``config/filter_params.yaml``.
 """
+import threading
 import time
 from typing import List, Optional, Tuple
 
@@ -133,11 +134,10 @@ class InterbotixPointCloudInterface:
 
     def _call(self, client, request):
         """Call a service; return its response, or None (logged) after CALL_TIMEOUT."""
+        done = threading.Event()
         future = client.call_async(request)
-        deadline = time.monotonic() + CALL_TIMEOUT
-        while not future.done() and time.monotonic() < deadline:
-            time.sleep(0.002)
-        if not future.done():
+        future.add_done_callback(lambda _: done.set())
+        if not done.wait(CALL_TIMEOUT):
             client.remove_pending_request(future)
             self.node_inf.get_logger().error(f'{client.srv_name}: no answer in {CALL_TIMEOUT} s')
             return None
