@@ -383,9 +383,42 @@ STATE_PUBLISHER = NodeSchema('robot_state_publisher', (
               low=0.0),
 ))
 
+#: range of a crop box bound [m] (a camera sees a few metres)
+CROP_LIMIT = 10.0
+
+PC_FILTER = NodeSchema('pointcloud_pipeline', (
+    ParamSpec('robot_name', 'string', 'px100', 'robot whose camera cloud is filtered: the '
+              'default cloud_topic is /<robot_name>/camera/depth/color/points', read_only=True),
+    ParamSpec('cloud_topic', 'string', '', "PointCloud2 to filter; '' = "
+              '/<robot_name>/camera/depth/color/points', read_only=True),
+    ParamSpec('enable_pipeline', 'bool', False, 'filter every cloud as it arrives (false, as '
+              "Interbotix's pc_filter launch file: only when get_cluster_positions is called); "
+              'the enable_pipeline service sets it'),
+) + tuple(ParamSpec(f'{axis}_filter_{end}', 'double', default, f'crop box {end} {axis} in the '
+                    'cloud frame [m]', low=-CROP_LIMIT, high=CROP_LIMIT)
+          for axis, lo, hi in (('x', -0.25, 0.25), ('y', -0.25, 0.25), ('z', 0.25, 0.75))
+          for end, default in (('min', lo), ('max', hi))) + (
+    ParamSpec('voxel_leaf_size', 'double', 0.004, 'voxel grid cell edge [m]', low=1e-4,
+              high=0.1),
+    ParamSpec('plane_max_iter', 'integer', 50, 'RANSAC iterations of the plane fit', low=1,
+              high=100000),
+    ParamSpec('plane_dist_thresh', 'double', 0.005, 'plane inlier distance [m]', low=0.0,
+              high=0.5),
+    ParamSpec('ror_radius_search', 'double', 0.01, 'radius outlier removal: search radius [m]',
+              low=1e-4, high=0.5),
+    ParamSpec('ror_min_neighbors', 'integer', 5, 'radius outlier removal: neighbours a kept '
+              'point needs', low=0, high=10000),
+    ParamSpec('cluster_tol', 'double', 0.02, 'Euclidean clustering: neighbour distance that '
+              'joins a cluster [m]', low=1e-4, high=0.5),
+    ParamSpec('cluster_min_size', 'integer', 50, 'clusters with fewer points are dropped',
+              low=1, high=10 ** 7),
+    ParamSpec('cluster_max_size', 'integer', 1000, 'clusters with more points are dropped',
+              low=1, high=10 ** 7),
+))
+
 #: schema of every node, by node name
 SCHEMAS = {s.node: s for s in (SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER, RECORDER,
-                               REPLAYER, STATE_PUBLISHER)}
+                               REPLAYER, STATE_PUBLISHER, PC_FILTER)}
 
 
 def register(schema: NodeSchema) -> NodeSchema:

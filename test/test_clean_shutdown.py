@@ -48,6 +48,7 @@ EXECUTABLES = {
     'replay': ('replay', ['--loop', '--no-progress'], ['replayer']),
     'viewer': ('viewer', [], ['viewer']),
     'viewer --bag': ('viewer', ['--bag'], ' on http://'),
+    'pc_filter': ('pc_filter', [], ['pointcloud_pipeline']),
 }
 #: how long the processes of a round, started at once, may take to be up [s]
 READY_TIMEOUT = 150.0

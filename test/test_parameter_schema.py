@@ -18,7 +18,7 @@ HELP_SCHEMAS = {
     'bringup': [ps.SIM_DRIVER, ps.IK_SERVICE, ps.TRAJECTORY_SERVER, ps.STATE_PUBLISHER,
                 ps.VIEWER],
     'state_publisher': [ps.STATE_PUBLISHER],
-    'inspect': [], 'bag_reindex': [],
+    'inspect': [], 'bag_reindex': [], 'pc_filter': [ps.PC_FILTER],
 }
 
 

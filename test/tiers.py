@@ -17,7 +17,8 @@ QUICK_PATHS = ('test/kinematics/', 'test/control/', 'test/sim/', 'test/bag/', 't
                'test/test_architecture.py', 'test/test_parameter_schema.py',
                'test/test_path_timing.py', 'test/test_queue_delay.py',
                'test/test_stall_meter.py', 'test/perception/test_camera_model.py',
-               'test/perception/test_cloud_filter.py', 'test/interfaces/')
+               'test/perception/test_cloud_filter.py', 'test/perception/test_pointcloud2.py',
+               'test/perception/test_tf_buffer.py', 'test/interfaces/')
 #: markers that keep a test out of the quick tier
 NOT_QUICK = ('ros', 'slow', 'stress', 'linter')
 #: one robot per family: the px100 (4-DOF closed form, the project's robot), a 6-DOF wrist arm,

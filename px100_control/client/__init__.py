@@ -8,7 +8,9 @@ import lines changed::
 
 Modules mirror Interbotix's layout: ``client.arm`` (like ``interbotix_xs_modules.xs_robot.arm``,
 also exporting InterbotixManipulatorXS), ``client.gripper``, ``client.core``, ``client.robot``
-(like ``interbotix_common_modules.common_robot.robot``) and ``client.mr_descriptions``.
+(like ``interbotix_common_modules.common_robot.robot``), ``client.mr_descriptions`` and
+``client.pointcloud`` (like ``interbotix_perception_modules.pointcloud``:
+InterbotixPointCloudInterface over the ``pc_filter`` node).
 """
 from px100_control.client.manipulator import InterbotixManipulatorXS
 from px100_control.client.robot import (create_interbotix_global_node,

@@ -16,6 +16,7 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 from px100_control.errors import InvalidInputError
+from px100_control.parameters import PC_FILTER
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
@@ -58,13 +59,9 @@ class FilterParams:
         return checked(replace(self, **changes))
 
 
-#: (lower, upper) bound of each number parameter; None = unbounded on that side
-BOUNDS = {
-    'voxel_leaf_size': (1e-4, 0.1), 'plane_max_iter': (1, 100000),
-    'plane_dist_thresh': (0.0, 0.5), 'ror_radius_search': (1e-4, 0.5),
-    'ror_min_neighbors': (0, 10000), 'cluster_tol': (1e-4, 0.5),
-    'cluster_min_size': (1, 10 ** 7), 'cluster_max_size': (1, 10 ** 7),
-}
+#: (lower, upper) bound of each number parameter, from the node's schema (written once)
+BOUNDS = {spec.name: (spec.low, spec.high) for spec in PC_FILTER.params
+          if spec.kind in ('double', 'integer')}
 
 
 def params_error(p: FilterParams) -> Optional[str]:
@@ -115,6 +112,8 @@ class FilterResult:
     objects: np.ndarray           # points after plane and outlier removal (M, 3)
     plane: Optional[np.ndarray]   # (a, b, c, d) with a x + b y + c z + d = 0, |(a, b, c)| = 1
     reason: str = ''              # why the pipeline stopped early ('' when it ran through)
+    filtered_rgb: Optional[np.ndarray] = None   # colours of ``filtered`` (N, 3), 0..255
+    objects_rgb: Optional[np.ndarray] = None    # colours of ``objects`` (M, 3), 0..255
 
 
 def crop_box(points: np.ndarray, p: FilterParams) -> np.ndarray:
@@ -208,18 +207,20 @@ def run_pipeline(points: np.ndarray, colors: np.ndarray, params: FilterParams,
     empty = np.zeros((0, 3))
     inside = crop_box(points, params)
     if not np.any(inside):
-        return FilterResult([], empty, empty, None, 'no point inside the crop box')
+        return FilterResult([], empty, empty, None, 'no point inside the crop box', empty, empty)
     pts, rgb = voxel_grid(points[inside], colors[inside], params.voxel_leaf_size)
     if len(pts) < 4:
-        return FilterResult([], pts, empty, None, 'fewer than 4 points after the voxel grid')
+        return FilterResult([], pts, empty, None, 'fewer than 4 points after the voxel grid',
+                            rgb, empty)
     plane, on_plane = fit_plane(pts, params.plane_max_iter, params.plane_dist_thresh, rng)
     rest, rest_rgb = pts[~on_plane], rgb[~on_plane]
     if len(rest) == 0:
-        return FilterResult([], pts, empty, plane, 'nothing left off the plane')
+        return FilterResult([], pts, empty, plane, 'nothing left off the plane', rgb, empty)
     keep = radius_outliers(rest, params.ror_radius_search, params.ror_min_neighbors)
     rest, rest_rgb = rest[keep], rest_rgb[keep]
     if len(rest) == 0:
-        return FilterResult([], pts, rest, plane, 'every point off the plane was an outlier')
+        return FilterResult([], pts, rest, plane, 'every point off the plane was an outlier',
+                            rgb, rest_rgb)
     clusters = []
     for idx in euclidean_clusters(rest, params.cluster_tol, params.cluster_min_size,
                                   params.cluster_max_size):
@@ -227,4 +228,4 @@ def run_pipeline(points: np.ndarray, colors: np.ndarray, params: FilterParams,
         top = cp[int(np.argmin(cp[:, 2]))]
         clusters.append(Cluster(tuple(cp.mean(axis=0)), tuple(rest_rgb[idx].mean(axis=0)),
                                 tuple(top), len(idx)))
-    return FilterResult(clusters, pts, rest, plane)
+    return FilterResult(clusters, pts, rest, plane, '', rgb, rest_rgb)
