@@ -15,7 +15,7 @@ import time
 
 from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory, GripperCommand
-from control_msgs.msg import JointTolerance
+from control_msgs.msg import GripperCommand as GripperCommandMsg, JointTolerance
 from nodes_helpers import duration, start_node, STARTUP_TIMEOUT, wait_for
 import numpy as np
 from px100_control.kinematics.solve import solve_ik
@@ -91,18 +91,42 @@ class ActionProbe(Node):
         with self.lock:
             return self.js['left_finger']
 
+    def call(self, fn):
+        """
+        Return the future of ``fn()``, called in this node's executor thread.
+
+        rclpy 7.1.6's ActionClient registers a request's future after sending it: a reply taken
+        by the executor thread in between is dropped ("Ignoring unexpected goal response") and
+        the future never completes (ros2/rclpy#1123). Called from the executor's own thread,
+        no reply can come in between.
+        """
+        task = self.executor.create_task(fn)
+        assert wait_for(task.done, 10.0), 'the executor did not run the call'
+        return task.result()
+
     def send(self, client, goal, feedback=True):
         """Send a goal; return its ClientGoalHandle (accepted or not)."""
         cb = (lambda fb: self.feedback.append(fb.feedback)) if feedback else None
-        fut = client.send_goal_async(goal, feedback_callback=cb)
-        assert wait_for(fut.done, 10.0), 'no goal response'
+        fut = self.call(lambda: client.send_goal_async(goal, feedback_callback=cb))
+        assert wait_for(fut.done, 10.0), 'no goal response\n' + self.log()
         return fut.result()
 
     def result(self, handle, timeout=30.0):
         """Return the goal's GetResult response (status, result)."""
-        fut = handle.get_result_async()
-        assert wait_for(fut.done, timeout), 'no result'
+        fut = self.call(handle.get_result_async)
+        assert wait_for(fut.done, timeout), 'no result\n' + self.log()
         return fut.result()
+
+    def cancel(self, handle):
+        """Cancel a goal; return the CancelGoal response."""
+        fut = self.call(handle.cancel_goal_async)
+        assert wait_for(fut.done, 5.0), 'no cancel response\n' + self.log()
+        return fut.result()
+
+    def log(self) -> str:
+        """Return the end of bringup's output (for failure messages)."""
+        proc = getattr(self, 'proc', None)
+        return proc.output()[-4000:] if proc is not None else ''
 
     def events_of(self, action, service):
         """Return the events recorded on one of the action's services."""
@@ -206,15 +230,16 @@ def test_cancel_stops_the_arm_and_ends_canceled(probe):
     target = q0 + np.array([1.0, 0.0, 0.0, 0.0])
     handle = probe.send(probe.arm, arm_goal([(4.0, target)]))
     assert wait_for(lambda: abs(probe.arm_q()[0] - q0[0]) > 0.1, 10.0), probe.arm_q()
-    fut = handle.cancel_goal_async()
-    assert wait_for(fut.done, 5.0)
-    assert len(fut.result().goals_canceling) == 1
+    assert len(probe.cancel(handle).goals_canceling) == 1
     res = probe.result(handle)
     assert res.status == GoalStatus.STATUS_CANCELED, res
-    q1 = probe.arm_q()
-    time.sleep(0.5)
+
+    def at_rest():   # the driver settles on the last setpoint after the result
+        q1 = probe.arm_q()
+        time.sleep(0.2)
+        return np.max(np.abs(probe.arm_q() - q1)) < 5e-4
+    assert wait_for(at_rest, 3.0, period=0.0), probe.arm_q()
     q2 = probe.arm_q()
-    assert np.max(np.abs(q2 - q1)) < 2e-3, (q1, q2)         # at rest
     assert abs(q2[0] - target[0]) > 0.2, q2                  # short of the target
     events = probe.events_of(ARM_ACTION, 'cancel_goal')
     types = [e.info.event_type for e in events]
@@ -350,3 +375,23 @@ def test_gripper_position_outside_the_finger_limits_is_refused(probe):
     assert res.status == GoalStatus.STATUS_ABORTED, res
     time.sleep(0.3)
     assert abs(probe.finger() - before) < 1e-3
+
+
+def test_gripper_cancel_holds_the_fingers_and_a_new_goal_preempts(probe):
+    """Cancel a closing goal: CANCELED, the fingers stay; a second goal preempts the first."""
+    assert _gripper(probe, MODEL.gripper.finger_upper).result.reached_goal
+    goal = GripperCommand.Goal()
+    goal.command.position = MODEL.gripper.finger_lower
+    handle = probe.send(probe.gripper, goal)
+    assert wait_for(lambda: probe.finger() < MODEL.gripper.finger_upper - 0.004, 10.0)
+    assert len(probe.cancel(handle).goals_canceling) == 1
+    res = probe.result(handle)
+    assert res.status == GoalStatus.STATUS_CANCELED, res
+    here = probe.finger()
+    time.sleep(0.5)
+    assert abs(probe.finger() - here) < 0.002 and here > MODEL.gripper.finger_lower + 0.003
+    first = probe.send(probe.gripper, goal)
+    second = probe.send(probe.gripper, GripperCommand.Goal(
+        command=GripperCommandMsg(position=MODEL.gripper.finger_upper)))
+    assert probe.result(first).status == GoalStatus.STATUS_CANCELED
+    assert probe.result(second).result.reached_goal
