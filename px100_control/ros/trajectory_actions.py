@@ -9,8 +9,9 @@ The trajectory server's ROS 2 actions, named as ros2_control's controllers name 
 
 docs/ros_interfaces.md states their semantics. rclpy 7.1's EventsExecutor, which the nodes spin
 in, does not serve rclpy action servers (goal requests are never taken), so the actions live on
-a helper node ``trajectory_actions`` in the trajectory server's namespace, spun by a
-single-threaded executor in a thread of its own; the engine is shared under the server's lock.
+a helper node ``trajectory_actions`` in the trajectory server's namespace (names resolved as
+the server resolves them: its remaps apply), spun by a single-threaded executor in a thread of
+its own; the engine is shared under the server's lock.
 Every goal, cancel and result call is published as service introspection events
 (:mod:`px100_control.ros.action_events`).
 """
@@ -25,6 +26,7 @@ from px100_control.control.gripper_action import (closing_torque, gripper_target
                                                   SUCCEEDED)
 from px100_control.errors import InvalidInputError
 from px100_control.ros.action_events import IntrospectedActionServer
+from px100_control.ros.common import robot_topic
 from px100_control.ros.conversions import seconds, stamp_key
 from rclpy.action import CancelResponse, GoalResponse
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -103,9 +105,11 @@ class TrajectoryActions:
                          start_parameter_services=False, parameter_overrides=[Parameter(
                              'use_sim_time', value=server.get_parameter('use_sim_time').value)])
         self._log = self.node.get_logger()
-        ns = self.node.get_namespace().rstrip('/')
+
+        def name(relative: str) -> str:   # as the server resolves it: its remaps apply
+            return server.resolve_topic_name(robot_topic(server, relative))
         self.arm = IntrospectedActionServer(
-            self.node, FJT, f'{ns}/{ARM_ACTION}', self._on_arm_goal,
+            self.node, FJT, name(ARM_ACTION), self._on_arm_goal,
             goal_callback=lambda goal: GoalResponse.ACCEPT, cancel_callback=self._on_arm_cancel)
         self.gripper = self._grip = self._finger = None
         g = server.model.gripper
@@ -114,13 +118,13 @@ class TrajectoryActions:
             self._linkage = GripperLinkage(g.horn_radius, g.arm_length, g.finger_lower,
                                            g.finger_upper)
             self.gripper = IntrospectedActionServer(
-                self.node, GripperCommand, f'{ns}/{GRIPPER_ACTION}', self._on_gripper_goal,
+                self.node, GripperCommand, name(GRIPPER_ACTION), self._on_gripper_goal,
                 goal_callback=lambda goal: GoalResponse.ACCEPT,
                 cancel_callback=self._on_gripper_cancel)
-            self._pub_setpoint = self.node.create_publisher(JointState,
-                                                            'commands/joint_setpoints', 10)
-            self.node.create_subscription(JointState, 'joint_states', self._on_joint_states,
-                                          qos_profile_sensor_data)
+            self._pub_setpoint = self.node.create_publisher(
+                JointState, name('commands/joint_setpoints'), 10)
+            self.node.create_subscription(JointState, name('joint_states'),
+                                          self._on_joint_states, qos_profile_sensor_data)
         rate = float(server.get_parameter('action_monitor_rate').value)
         self.node.create_timer(1.0 / rate, self._on_monitor)
         self._executor = SingleThreadedExecutor(context=server.context)
