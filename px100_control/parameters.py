@@ -357,6 +357,17 @@ TRAJECTORY_SERVER = NodeSchema('trajectory_server', COMMON + (
               'the start [rad]', low=0.0),
     ParamSpec('status_history', 'integer', 50, 'number of recent goals kept in '
               'trajectory/status', low=1, high=100000),
+    ParamSpec('action_monitor_rate', 'double', 20.0, 'feedback rate of the '
+              'arm_controller/follow_joint_trajectory and gripper_controller/gripper_cmd '
+              'actions [Hz] (read at start)', low=0.1, high=1000.0, read_only=True),
+    ParamSpec('gripper_goal_tolerance', 'double', 0.002, 'gripper_cmd: reached when the '
+              'finger position is this close to the goal [m]', low=0.0, above_low=True),
+    ParamSpec('gripper_stall_velocity_threshold', 'double', 0.001, 'gripper_cmd: the fingers '
+              'count as stopped below this speed [m/s]', low=0.0),
+    ParamSpec('gripper_stall_timeout', 'double', 1.0, 'gripper_cmd: stopped this long short of '
+              'the goal = stalled [s]', low=0.0, above_low=True),
+    ParamSpec('gripper_allow_stalling', 'bool', True, 'gripper_cmd: a stall (the fingers closed '
+              'on an object) ends SUCCEEDED; false: ABORTED (both report stalled)'),
 ))
 
 VIEWER = NodeSchema('viewer', COMMON + (

@@ -84,6 +84,11 @@ class GoalRequest:
     positions: Sequence[Sequence[float]]
     velocities: Sequence[Sequence[float]]
     accelerations: Sequence[Sequence[float]]
+    #: per-joint overrides {joint: rad} (FollowJointTrajectory semantics: 0 = the server's
+    #: default, < 0 = not checked); None = the settings' for every joint
+    path_tolerance: Optional[dict] = None
+    goal_tolerance: Optional[dict] = None
+    goal_time_tolerance: Optional[float] = None    # [s]; None or 0 = the settings'
 
 
 @dataclass
@@ -102,6 +107,13 @@ class Goal:
     hold_since: Optional[int] = None      # goal clock [ns] when it paused
     last_q: Optional[np.ndarray] = None
     last_qd: Optional[np.ndarray] = None
+    path_tol: Optional[np.ndarray] = None    # (n,) [rad], inf = not checked; None = settings'
+    goal_tol: Optional[np.ndarray] = None
+    goal_time_tol: Optional[float] = None    # [s]; None = settings'
+
+
+#: why a goal ABORTED, for callers that report codes (FollowJointTrajectory's error_code)
+PATH_TOLERANCE, GOAL_TOLERANCE = 'PATH_TOLERANCE', 'GOAL_TOLERANCE'
 
 
 @dataclass
@@ -111,6 +123,7 @@ class Outcome:
     sends: List[Tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     finished: Optional[Tuple[Goal, str, str]] = None      # (goal, status, reason)
     notes: List[Tuple[str, str]] = field(default_factory=list)   # (level, text)
+    code: str = ''       # PATH_TOLERANCE | GOAL_TOLERANCE for such aborts, else ''
 
 
 class GoalExecutor:
@@ -167,12 +180,38 @@ class GoalExecutor:
 
         :raises InvalidInputError: the goal is invalid (nothing changes)
         """
+        s = self.settings
+        path_tol = self.tolerances('path_tolerance', s.path_tolerance, req.path_tolerance)
+        goal_tol = self.tolerances('goal_tolerance', s.goal_tolerance, req.goal_tolerance)
+        time_tol = req.goal_time_tolerance
+        if time_tol is not None and not (math.isfinite(time_tol) and time_tol >= 0.0):
+            raise InvalidInputError(f'goal_time_tolerance must be a finite duration >= 0 s, '
+                                    f'got {time_tol!r}')
         traj, info = self.plan(req, steady_ns)
         old, self.active = self.active, None
         goal = Goal(key=req.key, label=req.label, traj=traj, t_start=now_ns, info=info,
-                    tag=tag, stepped=self.settings.profile == 'linear_max_step')
+                    tag=tag, stepped=s.profile == 'linear_max_step', path_tol=path_tol,
+                    goal_tol=goal_tol, goal_time_tol=time_tol or None)
         self.active = goal
         return goal, old
+
+    def tolerances(self, what: str, default: float, given: Optional[dict]):
+        """
+        Return (n,) per-joint tolerances [rad] from ``default`` and overrides {joint: value}.
+
+        An override of 0 keeps the default, a negative one means "not checked" (inf).
+        :raises InvalidInputError: an unknown joint or a value that is not a number
+        """
+        tol = np.full(self.n, float(default))
+        for name, value in (given or {}).items():
+            if name not in self.index:
+                raise InvalidInputError(f"{what} names joint '{name}', which is not one of "
+                                        f'{self.names}')
+            if not math.isfinite(value):
+                raise InvalidInputError(f"{what} of joint '{name}' is {value!r}")
+            if value != 0.0:
+                tol[self.index[name]] = value if value > 0.0 else math.inf
+        return tol
 
     def plan(self, req: GoalRequest, steady_ns: int):
         """Validate a goal and plan it from the current state: (Trajectory, info)."""
@@ -298,30 +337,36 @@ class GoalExecutor:
 
     def _check_tracking(self, g: Goal, t: float, q, now_ns: int, out: Outcome) -> None:
         err = self.tracking_error(g, t, now_ns)
-        j = int(np.argmax(err))
-        tol = self.settings.path_tolerance
+        tols = g.path_tol if g.path_tol is not None else np.full(self.n,
+                                                                 self.settings.path_tolerance)
+        j = int(np.argmax(err - tols))
+        tol = tols[j]
         if err[j] > tol:
             out.sends.append(self._hold_measured(g, out))
             lag = (now_ns - self.meas_stamp_ns) * 1e-9
+            out.code = PATH_TOLERANCE
             self._finish(out, ABORTED,
                          f"tracking error of joint '{self.names[j]}' is {err[j]:.4g} rad "
-                         f'(path_tolerance {tol} rad) at t = {t:.3f} s: measured '
+                         f'(path_tolerance {tol:g} rad) at t = {t:.3f} s: measured '
                          f'{self.meas[j]:.4f} rad ({lag:.3f} s before), setpoint '
                          f'{q[j]:.4f} rad; joint blocked or driver not following')
 
     def _check_settled(self, g: Goal, t: float, q, out: Outcome) -> None:
         err = np.abs(self.meas - q)
-        tol = self.settings.goal_tolerance
-        if float(np.max(err)) <= tol:
+        tols = g.goal_tol if g.goal_tol is not None else np.full(self.n,
+                                                                 self.settings.goal_tolerance)
+        j = int(np.argmax(err - tols))
+        time_tol = g.goal_time_tol or self.settings.goal_time_tolerance
+        if err[j] <= tols[j]:
             self._finish(out, SUCCEEDED,
                          f'reached within {float(np.max(err)):.2g} rad at t = {t:.3f} s '
                          f'(trajectory {g.traj.duration:.3f} s)')
-        elif t > g.traj.duration + self.settings.goal_time_tolerance:
-            j = int(np.argmax(err))
+        elif t > g.traj.duration + time_tol:
+            out.code = GOAL_TOLERANCE
             self._finish(out, ABORTED,
                          f"joint '{self.names[j]}' did not settle: error {err[j]:.4g} rad "
-                         f'> goal_tolerance {tol} rad, {t - g.traj.duration:.2f} s after the '
-                         'trajectory ended')
+                         f'> goal_tolerance {tols[j]:g} rad, {t - g.traj.duration:.2f} s after '
+                         'the trajectory ended')
 
     def _finish(self, out: Outcome, status: str, reason: str) -> None:
         out.finished = (self.active, status, reason)

@@ -1,10 +1,11 @@
 """
-trajectory_server: action-style joint trajectory execution over standard messages.
+trajectory_server: joint trajectory execution, as ROS 2 actions and action-style topics.
 
-Topics and services are those of docs/ros_interfaces.md, in the node's namespace. This node is
-wiring: it declares the parameters, turns messages into the goal executor's inputs
-(:mod:`px100_control.control.goal_executor`, where the goal semantics live: planning, sampling,
-hold/resume, tracking and settle verdicts, the watchdog) and publishes what it decides.
+Names are those of docs/ros_interfaces.md, in the node's namespace. This node is wiring: it
+declares the parameters, turns messages into the goal executor's inputs
+(:mod:`px100_control.control.goal_executor`: planning, sampling, hold/resume, verdicts, the
+watchdog) and publishes what it decides; the actions ``arm_controller/follow_joint_trajectory``
+and ``gripper_controller/gripper_cmd`` are :mod:`px100_control.ros.trajectory_actions`'.
 
 A goal is a trajectory_msgs/JointTrajectory on ``trajectory/goal``, its ``header.stamp`` its id;
 names and array lengths are checked on the serialized goal before it is deserialized (a goal of
@@ -36,6 +37,7 @@ from px100_control.ros.goal_status import (cancel_matches, DIAG_LEVEL, diagnosti
                                            uuid_bytes)
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
+from px100_control.ros.trajectory_actions import TrajectoryActions
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
@@ -115,9 +117,9 @@ class TrajectoryServerNode(Node):
                                            clock=self._steady)
         self._duplicates = ''
         self.create_timer(2.0, self._check_peers, clock=self._steady)
-        self._setpoint = JointState()
-        self._setpoint.name = list(self._names)
+        self._setpoint = JointState(name=list(self._names))
         self._publish_status()
+        self._actions = TrajectoryActions(self)
         self.get_logger().info(
             f'trajectory_server ready: {self.model.name} joints {self._names}, '
             f'{self._rate:g} Hz, profile {self.get_parameter("profile").value}')
@@ -185,21 +187,23 @@ class TrajectoryServerNode(Node):
         key = stamp_key(stamp)
         with self._lock:
             if self._engine.is_running(key):
-                self._diagnose(key, DiagnosticStatus.ERROR, f'duplicate goal id '
-                               f'{stamp_id(stamp)} ignored: that goal is still running',
-                               'IGNORED')
-                return
+                return self._diagnose(key, DiagnosticStatus.ERROR, f'duplicate goal id '
+                                      f'{stamp_id(stamp)} ignored: that goal is still running',
+                                      'IGNORED')
             if invalid:
                 return self._reject(stamp, invalid)
             try:
-                goal, old = self._engine.start(
-                    goal_request(msg), self.get_clock().now().nanoseconds,
-                    self._steady.now().nanoseconds, self._new_status(stamp))
+                self.start_goal(goal_request(msg), self._new_status(stamp))
             except (InvalidInputError, ValueError, TypeError) as exc:
                 return self._reject(stamp, str(exc))
             except Exception as exc:  # noqa: B902 - a bad goal must never stop the node
                 return self._reject(stamp, f'internal error planning the goal: {exc!r}')
-            self._started(goal, old)
+
+    def start_goal(self, request, tag) -> None:
+        """Start a goal (under the lock); raise InvalidInputError when it is invalid."""
+        goal, old = self._engine.start(request, self.get_clock().now().nanoseconds,
+                                       self._steady.now().nanoseconds, tag)
+        self._started(goal, old)
 
     def _started(self, goal: Goal, old: Optional[Goal]) -> None:
         """Publish a started goal (ACCEPTED, EXECUTING) after the one it preempted."""
@@ -222,15 +226,20 @@ class TrajectoryServerNode(Node):
             if g is None or not cancel_matches(g.tag, g.key, uuid, stamp):
                 response.return_code = self._book.cancel_refusal(uuid, stamp)
                 return response
-            if g.phase != 'canceling':
-                self._engine.cancel(self.get_clock().now().nanoseconds)
-                g.tag.status = GoalStatus.STATUS_CANCELING
-                self._publish_status()
-                self.get_logger().info(f'goal {g.label} canceling: stopping in '
-                                       f'{g.traj.duration:.3f} s')
+            self.cancel_active()
             response.goals_canceling = [g.tag.goal_info]
             response.return_code = CancelGoal.Response.ERROR_NONE
             return response
+
+    def cancel_active(self) -> None:
+        """Decelerate the running goal to rest (CANCELING), once; under the lock."""
+        g = self._engine.active
+        if g.phase != 'canceling':
+            self._engine.cancel(self.get_clock().now().nanoseconds)
+            g.tag.status = GoalStatus.STATUS_CANCELING
+            self._publish_status()
+            self.get_logger().info(f'goal {g.label} canceling: stopping in '
+                                   f'{g.traj.duration:.3f} s')
 
     # ------------------------------------------------------------------ execution
     def _on_tick(self) -> None:
@@ -268,7 +277,7 @@ class TrajectoryServerNode(Node):
             self._send(q, qd, now)
         if out.finished is not None:
             goal, status, reason = out.finished
-            self._finish(goal, STATUS_CODES[status], reason)
+            self._finish(goal, STATUS_CODES[status], reason, out.code)
 
     def _send(self, q, qd, now=None) -> None:
         """Publish a setpoint (and the same as feedback), stamped with its sample time."""
@@ -298,10 +307,11 @@ class TrajectoryServerNode(Node):
         self.get_logger().error(f'goal {stamp_id(stamp)} ABORTED (invalid, nothing sent): '
                                 f'{reason}')
 
-    def _finish(self, goal: Goal, status: int, reason: str) -> None:
+    def _finish(self, goal: Goal, status: int, reason: str, code: str = '') -> None:
+        name = STATUS_NAMES[status]
+        self._actions.finished(goal, name, reason, code)   # an action goal's result
         goal.tag.status = status
         self._publish_status()
-        name = STATUS_NAMES[status]
         self._diagnose(goal.key, DIAG_LEVEL[status], reason, name)
         self._log({GoalStatus.STATUS_ABORTED: 'error', GoalStatus.STATUS_CANCELED: 'warning'}
                   .get(status, 'info'), f'goal {goal.label} {name}: {reason}')
@@ -319,17 +329,18 @@ class TrajectoryServerNode(Node):
         self._pub_diag.publish(diagnostic(self.get_clock().now().to_msg(), self._diag_name, key,
                                           level, message, status))
 
-    def goal_statuses(self) -> dict:
-        """Return {goal id: status name} of the recent goals (for tests and tools)."""
-        with self._lock:
-            return self._book.names()
+    def destroy_node(self):
+        """Stop the actions' thread and helper node, then destroy this node."""
+        self._actions.close()
+        super().destroy_node()
 
 
 def main(args=None):
     """Run the trajectory_server node (``ros2 run px100_control trajectory_server``)."""
     return spin_node(lambda options: TrajectoryServerNode(), args, schema=TRAJECTORY_SERVER,
-                     description='Action-style joint trajectory server of px100_control '
-                                 '(trajectory/goal, trajectory/status, trajectory/cancel).')
+                     description='Joint trajectory server of px100_control (actions '
+                                 'arm_controller/follow_joint_trajectory, gripper_controller/'
+                                 'gripper_cmd; topics trajectory/goal, trajectory/status).')
 
 
 if __name__ == '__main__':

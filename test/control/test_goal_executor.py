@@ -12,8 +12,9 @@ joint measured outside its limits, and linear_max_step's one step per tick.
 import math
 
 import numpy as np
-from px100_control.control.goal_executor import (ABORTED, CANCELED, GoalExecutor, GoalRequest,
-                                                 Settings, settings_error, SUCCEEDED)
+from px100_control.control.goal_executor import (ABORTED, CANCELED, GOAL_TOLERANCE, GoalExecutor,
+                                                 GoalRequest, PATH_TOLERANCE, Settings,
+                                                 settings_error, SUCCEEDED)
 from px100_control.errors import InvalidInputError
 from px100_control.models.registry import load_robot
 import pytest
@@ -27,12 +28,12 @@ SETTINGS = {'rate': 200.0, 'profile': 'trapezoidal', 'moving_time': 2.0, 'accel_
             'goal_time_tolerance': 1.0, 'stop_deceleration': 10.0, 'start_tolerance': 0.05}
 
 
-def request(points, names=ARM, key=1, vel=None):
-    """Return a GoalRequest of [(time [s], positions)] points."""
+def request(points, names=ARM, key=1, vel=None, **tolerances):
+    """Return a GoalRequest of [(time [s], positions)] points (tolerances: GoalRequest's)."""
     return GoalRequest(key=key, label=f'goal{key}', names=names,
                        times=[t for t, _ in points], positions=[p for _, p in points],
                        velocities=vel or [[] for _ in points],
-                       accelerations=[[] for _ in points])
+                       accelerations=[[] for _ in points], **tolerances)
 
 
 class Rig:
@@ -65,6 +66,7 @@ class Rig:
             wd = self.ex.watchdog(self.steady)
             out.finished = out.finished or wd.finished
         self.notes += out.notes
+        self.code = out.code or getattr(self, 'code', '')
         for q, qd in out.sends:
             self.sent.append((self.now, q, qd))
             keep = [ARM.index(j) for j in self.frozen]
@@ -303,3 +305,45 @@ def test_settings_ranges_are_the_schemas():
         if spec.high is not None:
             assert settings_error(spec.name, spec.high) == ''
             assert spec.name in settings_error(spec.name, spec.high + step)
+
+
+def test_path_tolerance_per_joint_codes_and_none():
+    """A blocked elbow: PATH_TOLERANCE by default; with its path tolerance -1, GOAL_TOLERANCE."""
+    rig = Rig()
+    rig.frozen.add('elbow')
+    rig.start(request([(1.5, [0.0, -0.9, -0.6, 0.3])]))
+    status, reason, _ = rig.run(3.0)
+    assert (status, rig.code) == (ABORTED, PATH_TOLERANCE) and "'elbow'" in reason
+    rig = Rig()
+    rig.frozen.add('elbow')
+    rig.start(request([(1.5, [0.0, -0.9, -0.6, 0.3])], path_tolerance={'elbow': -1.0},
+                      goal_time_tolerance=0.5))
+    status, reason, elapsed = rig.run(5.0)
+    assert (status, rig.code) == (ABORTED, GOAL_TOLERANCE), reason
+    assert "joint 'elbow' did not settle" in reason and 1.5 + 0.5 < elapsed <= 2.01
+
+
+@pytest.mark.parametrize('tol, status', [({'wrist_angle': 0.02}, SUCCEEDED),
+                                         ({'wrist_angle': 0.0}, ABORTED),
+                                         ({'wrist_angle': -1.0}, SUCCEEDED)])
+def test_goal_tolerance_per_joint(tol, status):
+    """An offset of 10 mrad: within a 20 mrad or no tolerance; 0 = the default 2 mrad."""
+    rig = Rig()
+    rig.offset[3] = 0.01
+    rig.start(request([(0.5, [0.1])], names=['waist'], goal_tolerance=tol,
+                      goal_time_tolerance=0.3))
+    got, reason, _ = rig.run(3.0)
+    assert got == status, reason
+    assert rig.code == ('' if status == SUCCEEDED else GOAL_TOLERANCE)
+
+
+@pytest.mark.parametrize('kw, words', [
+    ({'path_tolerance': {'nope': 0.1}}, "names joint 'nope'"),
+    ({'goal_tolerance': {'waist': math.nan}}, "goal_tolerance of joint 'waist'"),
+    ({'goal_time_tolerance': -1.0}, 'goal_time_tolerance'),
+])
+def test_bad_tolerances_are_refused_and_change_nothing(kw, words):
+    rig = Rig()
+    with pytest.raises(InvalidInputError, match=words):
+        rig.start(request([(1.0, [0.1])], names=['waist'], **kw))
+    assert rig.ex.active is None
