@@ -18,6 +18,7 @@ EXECUTABLES = {
     'inspect': 'px100_control.bag.inspect_cli:main',
     'bag_reindex': 'px100_control.bag.reindex:main',
     'viewer': 'px100_control.ros.viewer_node:main',
+    'camera': 'px100_control.ros.camera_node:main',
 }
 
 
