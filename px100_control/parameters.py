@@ -388,7 +388,7 @@ CAMERA = NodeSchema('camera', COMMON + (
     ParamSpec('height', 'integer', None, 'image height [px]', low=16, high=4096,
               default_doc=_SCENE_CAMERA + ' 480'),
     ParamSpec('fovy', 'double', None, 'vertical field of view [rad]', low=math.radians(5),
-              high=math.radians(150), default_doc=_SCENE_CAMERA + ' 0.7436 (42.6 deg)'),
+              high=math.radians(150), default_doc=_SCENE_CAMERA + ' 0.743365 (42.6 deg)'),
     ParamSpec('rate', 'double', None, 'frame rate [Hz] (a timer on the node clock)', low=0.0,
               above_low=True, high=60.0, default_doc=_SCENE_CAMERA + ' 5.0'),
     ParamSpec('depth_min', 'double', None, 'nearest depth with a return [m]', low=0.0,

@@ -132,15 +132,17 @@ def view_error(spec: CameraSpec) -> Optional[str]:
     Return why the camera sees nothing of the table, or None.
 
     Its optical axis must meet the table plane (z = 0 of the base frame) in front of it within
-    ``depth_range`` [m].
+    ``depth_range`` [m] (the distance along the axis is the depth there).
     """
     z = spec.optical_rotation()[:, 2]
     height = float(spec.position[2])
     distance = -height / z[2] if abs(z[2]) > 1e-9 else math.inf
-    if not (0.0 < distance <= spec.depth_range[1]):
-        return (f'position {list(spec.position)} / look_at {list(spec.look_at)}: the camera '
-                f'sees nothing (its optical axis does not meet the table plane z = 0 within '
-                f'depth_range max {spec.depth_range[1]} m)')
+    lo, hi = spec.depth_range
+    if not (0.0 < distance and lo <= distance <= hi):
+        seen = f'at {distance:.3g} m' if 0.0 < distance < math.inf else 'nowhere ahead'
+        return (f'position {list(spec.position)} / look_at {list(spec.look_at)} / depth_range '
+                f'{list(spec.depth_range)}: the camera sees nothing (its optical axis meets the '
+                f'table plane z = 0 {seen}, outside depth_range)')
     return None
 
 

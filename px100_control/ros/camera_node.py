@@ -176,11 +176,11 @@ class CameraNode(Node):
 
     def _frame(self) -> None:
         """Render the last state and publish colour, depth, camera_info and the cloud."""
-        if needs_rebuild(self._scene, self.camera, self._bodies):
+        tag = armtag.TAG_ID if self.get_parameter('armtag').value else None
+        if needs_rebuild(self._scene, self.camera, self._bodies, tag):
             if self._scene is not None:
                 self._scene.close()
             self._scene = None
-            tag = armtag.TAG_ID if self.get_parameter('armtag').value else None
             self._scene = CameraScene(self.robot, self.camera, self._bodies, tag)
         self._scene.set_state(self._joints, self._poses)
         color, depth = self._scene.render()

@@ -88,6 +88,7 @@ class CameraScene:
         spec, _ = mjcf.build_spec(robot)
         spec.option.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         _add_bodies(spec, bodies)
+        self.tag_id = tag_id
         self.has_tag = tag_id is not None and _add_armtag(spec, tag_id, '')
         add_camera(spec, camera)
         self.model = spec.compile()
@@ -141,7 +142,8 @@ class CameraScene:
         self._renderer.close()
 
 
-def needs_rebuild(scene: Optional[CameraScene], camera: CameraSpec,
-                  bodies: Sequence[Body]) -> bool:
-    """Return True when ``scene`` cannot show ``bodies`` through ``camera`` (or is None)."""
-    return scene is None or scene.camera != camera or scene.bodies != tuple(bodies)
+def needs_rebuild(scene: Optional[CameraScene], camera: CameraSpec, bodies: Sequence[Body],
+                  tag_id: Optional[int]) -> bool:
+    """Return True when ``scene`` cannot show ``bodies`` and the tag through ``camera``."""
+    return (scene is None or scene.camera != camera or scene.bodies != tuple(bodies)
+            or scene.tag_id != tag_id)
