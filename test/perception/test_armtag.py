@@ -24,7 +24,7 @@ POSES = ([0.0, 0.0, 0.0, 0.0], list(ROBOT.sleep), [0.3, -0.5, 0.3, 0.6], [-0.4, 
 
 @pytest.fixture(scope='module')
 def scene():
-    """The camera's model of pick_place with the tag (one renderer for the module)."""
+    """Yield the camera's model of pick_place with the tag (one renderer for the module)."""
     world = load_scene('pick_place', ROBOT)
     bodies = [Body(b.name, b.shape, marker_scale(b.shape, b.size), b.rgba) for b in world.bodies]
     poses = {b.name: (b.position, b.quaternion_xyzw) for b in world.bodies}
