@@ -2,13 +2,15 @@
 camera: a simulated RGB-D camera driver (a RealSense D415 by default), in the robot namespace.
 
 Its own MuJoCo model of what it sees (:class:`~px100_control.sim.camera_scene.CameraScene`), so
-rendering never slows sim_driver's physics: the robot's geometry from its URDF (robot_model's
-robot description, the one sim_driver publishes on ``robot_description``), the world's bodies
+rendering never slows sim_driver's physics: the robot's geometry from the URDF on
+``robot_description`` (sim_driver's; no frame before it arrives), the world's bodies
 from ``world/markers`` and the ArmTag on the gripper. Each frame (a timer at ``rate`` Hz) it
 poses the model from the last ``joint_states`` and markers and renders it offscreen
 (``MUJOCO_GL=egl``: the CPU software renderer on a machine without a GPU).
 
-- sub ``joint_states`` (sensor_msgs/JointState), ``world/markers`` (visualization_msgs/
+- sub ``robot_description`` (std_msgs/String, transient local: the model is rebuilt when it
+  changes; one MuJoCo cannot build is logged, no frames until a usable one),
+  ``joint_states`` (sensor_msgs/JointState), ``world/markers`` (visualization_msgs/
   MarkerArray, transient local; the model is rebuilt when the set of bodies changes);
 - pub ``camera/color/image_raw``, ``camera/color/camera_info``, ``camera/depth/image_rect_raw``
   (32FC1 metres, aligned to colour), ``camera/depth/camera_info``, ``camera/depth/color/points``
@@ -30,7 +32,7 @@ from px100_control.perception.camera import (back_project, camera_error, CameraS
                                              noisy_depth, view_error)
 from px100_control.ros.camera_msgs import (camera_info_msg, cloud_msg, image_msg, static_tf)
 from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
-                                      robot_node_kwargs, robot_topic, shutting_down,
+                                      robot_name, robot_node_kwargs, robot_topic, shutting_down,
                                       spin_node)
 from px100_control.ros.parameter_schema import declare_schema, parameter_descriptor
 from px100_control.ros.state_publisher_node import TF_STATIC_QOS
@@ -40,6 +42,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image, JointState, PointCloud2
+from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
@@ -95,8 +98,11 @@ class CameraNode(Node):
         self._scene = None
         self._joints, self._stamp = {}, None
         self._bodies, self._poses = (), {}
+        self._urdf = None
         self.frame_seconds = []              # render + publish time of each frame [s]
         self._make_publishers()
+        self.create_subscription(String, robot_topic(self, 'robot_description'),
+                                 self._on_description, LATCHED_QOS)
         self.create_subscription(JointState, robot_topic(self, 'joint_states'),
                                  self._on_joint_states, qos_profile_sensor_data)
         self.create_subscription(MarkerArray, robot_topic(self, 'world/markers'),
@@ -144,6 +150,9 @@ class CameraNode(Node):
                                        f['camera_color_optical_frame'],
                                        self.get_clock().now().to_msg()))
 
+    def _on_description(self, msg: String) -> None:
+        self._urdf = msg.data
+
     def _on_joint_states(self, msg: JointState) -> None:
         self._joints.update(zip(msg.name, msg.position))
         self._stamp = msg.header.stamp
@@ -161,7 +170,7 @@ class CameraNode(Node):
         self._bodies, self._poses = tuple(bodies), poses
 
     def _on_timer(self) -> None:
-        if not self.get_parameter('enable').value or self._stamp is None:
+        if not self.get_parameter('enable').value or self._stamp is None or not self._urdf:
             return
         start = time.perf_counter()
         try:
@@ -177,11 +186,12 @@ class CameraNode(Node):
     def _frame(self) -> None:
         """Render the last state and publish colour, depth, camera_info and the cloud."""
         tag = armtag.TAG_ID if self.get_parameter('armtag').value else None
-        if needs_rebuild(self._scene, self.camera, self._bodies, tag):
+        if needs_rebuild(self._scene, self.camera, self._bodies, tag, self._urdf):
+            prefix = f'{robot_name(self)}/' if robot_name(self) else ''
+            scene = CameraScene(self.robot, self.camera, self._bodies, tag, self._urdf, prefix)
             if self._scene is not None:
                 self._scene.close()
-            self._scene = None
-            self._scene = CameraScene(self.robot, self.camera, self._bodies, tag)
+            self._scene = scene
         self._scene.set_state(self._joints, self._poses)
         color, depth = self._scene.render()
         depth = noisy_depth(self.camera, depth, self._rng)

@@ -2,14 +2,15 @@
 What a simulated camera sees: the robot, the world's bodies and the ArmTag, in a MuJoCo model.
 
 The camera node's own model, apart from the physics: the robot from its URDF (the visual geoms
-of :func:`px100_control.sim.mjcf.build_spec`), every body of ``world/markers`` as a mocap body
+of :func:`px100_control.sim.mjcf.build_spec`; the node passes the ``robot_description`` it
+receives), every body of ``world/markers`` as a mocap body
 (moved each frame, never simulated), the ArmTag (:mod:`px100_control.perception.armtag`) as a
 textured plate on its link, and the camera (:func:`~px100_control.sim.camera_render.add_camera`).
 :meth:`CameraScene.set_state` poses it from joint positions [rad, m] and the bodies' poses (base
 frame, quaternion x, y, z, w); :meth:`CameraScene.render` returns colour and depth. The model is
 rebuilt (:func:`needs_rebuild`) when the set of bodies changes. World frame = the robot base.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, Mapping, Optional, Sequence, Tuple
 
 import mujoco
@@ -81,15 +82,20 @@ class CameraScene:
     :param camera: the CameraSpec (checked)
     :param bodies: the world's bodies (:class:`Body`)
     :param tag_id: the ArmTag id (None: no tag)
+    :param urdf: a URDF to draw instead of the robot's own (e.g. its ``robot_description``,
+        links named ``<prefix><link>``; joint names bare)
+    :param prefix: the link name prefix of ``urdf`` (``'px100/'``)
     """
 
     def __init__(self, robot, camera: CameraSpec, bodies: Sequence[Body] = (),
-                 tag_id: Optional[int] = armtag.TAG_ID):
-        spec, _ = mjcf.build_spec(robot)
+                 tag_id: Optional[int] = armtag.TAG_ID, urdf: Optional[str] = None,
+                 prefix: str = ''):
+        self.urdf = urdf
+        spec, _ = mjcf.build_spec(robot if urdf is None else replace(robot, urdf_xml=urdf))
         spec.option.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
         _add_bodies(spec, bodies)
         self.tag_id = tag_id
-        self.has_tag = tag_id is not None and _add_armtag(spec, tag_id, '')
+        self.has_tag = tag_id is not None and _add_armtag(spec, tag_id, prefix)
         add_camera(spec, camera)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
@@ -143,7 +149,7 @@ class CameraScene:
 
 
 def needs_rebuild(scene: Optional[CameraScene], camera: CameraSpec, bodies: Sequence[Body],
-                  tag_id: Optional[int]) -> bool:
-    """Return True when ``scene`` cannot show ``bodies`` and the tag through ``camera``."""
+                  tag_id: Optional[int], urdf: Optional[str] = None) -> bool:
+    """Return True when ``scene`` cannot show this URDF, ``bodies`` and tag through ``camera``."""
     return (scene is None or scene.camera != camera or scene.bodies != tuple(bodies)
-            or scene.tag_id != tag_id)
+            or scene.tag_id != tag_id or scene.urdf != urdf)
