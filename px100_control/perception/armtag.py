@@ -76,7 +76,7 @@ def _depth_plane(depth: np.ndarray, corners: np.ndarray, intr: Intrinsics):
     """Return (unit normal, a point) of the plane of the depth pixels inside ``corners``."""
     mask = np.zeros(depth.shape, dtype=np.uint8)
     centre = corners.mean(axis=0)
-    inner = centre + 0.8 * (corners - centre)         # keep off the tag's edges
+    inner = centre + 1.05 * (corners - centre)   # into the white border, 2 mm off the plate edge
     cv2.fillConvexPoly(mask, np.round(inner).astype(np.int32), 1)
     v, u = np.nonzero((mask > 0) & (depth > 0.0))
     if len(v) < 12:
@@ -134,6 +134,20 @@ def detect(color: np.ndarray, intr: Intrinsics, tag_id: int = TAG_ID,
     T[:3, 3] = tvec.ravel()
     plane = None if depth is None else _depth_plane(np.asarray(depth), image_points, intr)
     return TagDetection(True, T if plane is None else _refine(T, plane), image_points)
+
+
+def average(transforms) -> np.ndarray:
+    """
+    Return the mean of 4x4 transforms (Interbotix averages ``num_samples`` tag detections).
+
+    Translations are averaged; the rotation is the nearest rotation (SVD) to the mean matrix.
+    """
+    stack = np.asarray(list(transforms), dtype=np.float64)
+    u, _, vt = np.linalg.svd(stack[:, :3, :3].mean(axis=0))
+    out = np.eye(4)
+    out[:3, :3] = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+    out[:3, 3] = stack[:, :3, 3].mean(axis=0)
+    return out
 
 
 def camera_to_base(T_camera_tag: np.ndarray, T_base_tag: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ from nodes_helpers import start_node, STARTUP_TIMEOUT, wait_for
 import numpy as np
 from px100_control.bag.tf import description_tree
 from px100_control.bag.world import markers_from_decoded
+from px100_control.kinematics.rotations import quaternion_to_matrix
 from px100_control.models.registry import load_robot
 from px100_control.perception import armtag
 from px100_control.perception.camera import transform_points
@@ -147,6 +148,12 @@ def test_topics_sizes_intrinsics_frames(env):
     assert link.header.frame_id == 'px100/base_link' and opt.header.frame_id == 'px100/camera_link'
     t = link.transform.translation
     np.testing.assert_allclose([t.x, t.y, t.z], CAMERA.position, atol=1e-9)
+    rotations = [quaternion_to_matrix(r.x, r.y, r.z, r.w) for r in
+                 (link.transform.rotation, opt.transform.rotation)]
+    np.testing.assert_allclose(rotations[0] @ rotations[1], CAMERA.optical_rotation(),
+                               atol=1e-9)                 # base -> link -> optical
+    np.testing.assert_allclose(rotations[0][:, 0], CAMERA.optical_rotation()[:, 2],
+                               atol=1e-9)                 # camera_link x = the optical axis
     assert camera.alive(), camera.output()
 
 
@@ -172,23 +179,27 @@ def _angle(R) -> float:
 
 
 def test_armtag_locates_the_camera(env):
-    """The camera -> base transform from the tag is within 5 mm and 1 deg of the truth."""
+    """From 5 frames (Interbotix's num_samples): camera -> base within 5 mm and 1 deg."""
     probe, _, _ = env
-    f = probe.frame()
     intr = CAMERA.intrinsics()
-    color = np.frombuffer(bytes(f['color'].data), np.uint8).reshape(480, 640, 3)
-    depth = np.frombuffer(bytes(f['depth'].data), np.float32).reshape(480, 640)
-    found = armtag.detect(color, intr, depth=depth)
-    assert found.found, found.reason
-    stamp = (f['color'].header.stamp.sec, f['color'].header.stamp.nanosec)
-    with probe.lock:
-        joints = probe.joints.get(stamp)
-    assert joints is not None, 'no joint_states with the image stamp'
-    T_base_parent = description_tree(ROBOT.urdf_xml, '').link_poses(joints)[armtag.PARENT_LINK]
-    T_base_tag = T_base_parent @ np.vstack([np.column_stack([np.eye(3), armtag.OFFSET]),
-                                            [0, 0, 0, 1]])
-    T_camera_base = armtag.camera_to_base(found.T_camera_tag, T_base_tag)
-    camera_pose = np.linalg.inv(T_camera_base)           # the optical frame in the base
+    tree = description_tree(ROBOT.urdf_xml, '')
+    offset = np.eye(4)
+    offset[:3, 3] = armtag.OFFSET
+    samples, after = [], 0.0
+    for _ in range(5):
+        f = probe.frame(after=after)
+        after = _sim_seconds(f['color']) + 1e-6
+        color = np.frombuffer(bytes(f['color'].data), np.uint8).reshape(480, 640, 3)
+        depth = np.frombuffer(bytes(f['depth'].data), np.float32).reshape(480, 640)
+        found = armtag.detect(color, intr, depth=depth)
+        assert found.found, found.reason
+        stamp = (f['color'].header.stamp.sec, f['color'].header.stamp.nanosec)
+        with probe.lock:
+            joints = probe.joints.get(stamp)
+        assert joints is not None, 'no joint_states with the image stamp'
+        T_base_tag = tree.link_poses(joints)[armtag.PARENT_LINK] @ offset
+        samples.append(armtag.camera_to_base(found.T_camera_tag, T_base_tag))
+    camera_pose = np.linalg.inv(armtag.average(samples))    # the optical frame in the base
     truth = CAMERA.optical_pose()
     assert np.linalg.norm(camera_pose[:3, 3] - truth[:3, 3]) < 0.005, (camera_pose, truth)
     assert _angle(camera_pose[:3, :3].T @ truth[:3, :3]) < 1.0
