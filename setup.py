@@ -19,6 +19,7 @@ EXECUTABLES = {
     'bag_reindex': 'px100_control.bag.reindex:main',
     'viewer': 'px100_control.ros.viewer_node:main',
     'pc_filter': 'px100_control.ros.pc_filter_node:main',
+    'camera': 'px100_control.ros.camera_node:main',
 }
 
 

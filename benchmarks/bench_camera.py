@@ -9,7 +9,12 @@ could sustain for colour + depth and the share of a core a given rate costs. The
 Interbotix's defaults on the points of the table in front of the arm. Bounded: ``--rounds`` (20;
 5 with ``--quick``) rounds, each stage well under a second; the whole run fails after
 ``--timeout`` s (120). Writes ``benchmarks/results/camera.json``.
-Usage (venv + install sourced): ``python benchmarks/bench_camera.py [--quick]``.
+
+``--node``: the camera node's effect on the physics: the ``sim_driver`` process at real time
+(100 Hz joint_states), first alone, then with the ``camera`` process (5 Hz, 640 x 480): the
+physics real-time factor (simulated s of joint_states stamps per wall s), the received
+joint_states period jitter p99, the camera's frame rate as received and its CPU share.
+Usage (venv + install sourced): ``python benchmarks/bench_camera.py [--quick] [--node]``.
 """
 import argparse
 import json
@@ -34,6 +39,40 @@ from px100_control.sim.scene import load_scene  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+def _node_window(seconds: float, camera: bool) -> dict:
+    """Return the real-time factor and jitter of sim_driver, with or without the camera."""
+    from bench_sim_driver import _cpu_seconds, _Listener, _window
+    from px100_control.tools.processes import NodeProcess
+    from sensor_msgs.msg import Image
+    listener = _Listener()
+    frames = []
+    listener.node.create_subscription(Image, '/px100/camera/color/image_raw',
+                                      lambda m: frames.append(time.monotonic()), 5)
+    procs = [NodeProcess('sim_driver', ['--ros-args', '-p', 'publish_rate:=100.0'])]
+    if camera:
+        procs.append(NodeProcess('camera'))
+    try:
+        if not listener.wait(listener.js, 50, 60.0) or (camera and not listener.wait(
+                frames, 3, 90.0)):
+            return {'error': 'no joint_states or frames', 'log': procs[-1].output()[-2000:]}
+        cpu0 = _cpu_seconds(procs[-1].pid)
+        n0 = len(frames)
+        samples = _window(listener.js, seconds)
+        cpu1 = _cpu_seconds(procs[-1].pid)
+        wall = samples[-1][0] - samples[0][0]
+        dev = np.abs(np.diff([s[0] for s in samples]) - 0.01) * 1e3
+        return {'camera': camera, 'real_time_factor': round((samples[-1][1] - samples[0][1])
+                                                            / wall, 4),
+                'received_jitter_p99_ms': round(float(np.percentile(dev, 99)), 2),
+                'camera_fps': round((len(frames) - n0) / seconds, 2) if camera else None,
+                'last_process_cpu_share': round((cpu1 - cpu0) / seconds, 2),
+                'load_average': os.getloadavg()[0]}
+    finally:
+        for proc in reversed(procs):
+            proc.stop()
+        listener.close()
+
+
 def _scene(camera: CameraSpec):
     robot = load_robot('px100')
     spec, _ = mjcf.build_spec(robot, load_scene('pick_place', robot))
@@ -53,10 +92,12 @@ def main(argv=None) -> int:
     parser.add_argument('--quick', action='store_true', help='5 rounds')
     parser.add_argument('--rounds', type=int, default=None)
     parser.add_argument('--timeout', type=float, default=120.0, help='fail after this [s]')
+    parser.add_argument('--node', action='store_true',
+                        help="also the camera node's effect on sim_driver's real-time factor")
     args = parser.parse_args(argv)
     rounds = args.rounds or (5 if args.quick else 20)
     signal.signal(signal.SIGALRM, lambda *_: sys.exit(f'bench_camera: over {args.timeout} s'))
-    signal.alarm(int(args.timeout))
+    signal.alarm(int(args.timeout + (300 if args.node else 0)))   # --node: two windows + starts
     camera = CameraSpec()
     model, data = _scene(camera)
     renderer = mujoco.Renderer(model, camera.height, camera.width)
@@ -97,6 +138,11 @@ def main(argv=None) -> int:
     print(f'camera 640x480, {rounds} rounds, load {out["load_average"][0]:.2f}:')
     for key, value in median.items():
         print(f'  {key:7s} {value:7.1f} ms')
+    if args.node:
+        seconds = 5.0 if args.quick else 20.0
+        out['node'] = [_node_window(seconds, camera) for camera in (False, True)]
+        for row in out['node']:
+            print(f'  sim_driver {"with" if row.get("camera") else "without"} the camera: {row}')
     print(f'  colour + depth {pair:.1f} ms -> at most {1e3 / pair:.1f} Hz on one core; '
           f'5 Hz with the cloud costs {100 * out["core_share_at_5hz"]:.0f} % of a core; '
           f'{clusters} clusters')

@@ -7,9 +7,9 @@ Every node runs in the robot namespace ``/<robot_name>`` with the parameters of
 ``params_file`` (default: the package's config/nodes.yaml, which fits every robot: what depends
 on the robot comes from config/robots/<robot_model>.yaml), then robot_model, robot_name and
 use_sim_time from the arguments. ``use_sim_time:=true`` also makes sim_driver publish /clock
-(``publish_clock``), so the nodes have a clock to follow. ``record:=true`` adds the recorder
-(the robot namespace and /diagnostics to a bag in the working directory), ``viewer:=true`` the
-browser viewer.
+(``publish_clock``), so the nodes have a clock to follow. The camera node (simulated RGB-D
+camera) runs unless ``camera:=false``. ``record:=true`` adds the recorder (the robot namespace
+and /diagnostics to a bag in the working directory), ``viewer:=true`` the browser viewer.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
@@ -44,6 +44,8 @@ def generate_launch_description():
                               description='also record the robot namespace to a bag'),
         DeclareLaunchArgument('viewer', default_value='false',
                               description='also start the browser viewer'),
+        DeclareLaunchArgument('camera', default_value='true',
+                              description='start the simulated RGB-D camera'),
     ]
     parameters = [params_file, {'robot_model': robot_model, 'robot_name': robot_name,
                                 'use_sim_time': use_sim_time}]
@@ -59,4 +61,7 @@ def generate_launch_description():
     nodes.append(Node(package=PACKAGE, executable='viewer', namespace=robot_name,
                       parameters=parameters, output='screen',
                       condition=IfCondition(LaunchConfiguration('viewer'))))
+    nodes.append(Node(package=PACKAGE, executable='camera', namespace=robot_name,
+                      parameters=parameters, output='screen',
+                      condition=IfCondition(LaunchConfiguration('camera'))))
     return LaunchDescription(arguments + nodes)

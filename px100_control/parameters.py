@@ -385,6 +385,36 @@ VIEWER = NodeSchema('viewer', COMMON + (
     ParamSpec('moving_time', 'double', 1.0, 'shortest duration of a move sent by a control '
               '[s]', low=0.0, above_low=True),
 ))
+_SCENE_CAMERA = "the scene's camera block, else the D415 default"
+CAMERA = NodeSchema('camera', COMMON + (
+    ParamSpec('enable', 'bool', True, 'render and publish (false: the camera is off)'),
+    ParamSpec('scene', 'string', 'auto', 'scene whose camera block gives the defaults below: '
+              "as sim_driver's scene ('auto' = the robot file's scene, '' = none)",
+              read_only=True),
+    ParamSpec('position', 'double_array', None, 'camera position in the base frame [m], 3 '
+              'values', default_doc=_SCENE_CAMERA + ' [0.18, 0.0, 0.6]'),
+    ParamSpec('look_at', 'double_array', None, 'point the optical axis goes through, base '
+              'frame [m], 3 values', default_doc=_SCENE_CAMERA + ' [0.15, 0.0, 0.0]'),
+    ParamSpec('width', 'integer', None, 'image width [px]', low=16, high=4096,
+              default_doc=_SCENE_CAMERA + ' 640'),
+    ParamSpec('height', 'integer', None, 'image height [px]', low=16, high=4096,
+              default_doc=_SCENE_CAMERA + ' 480'),
+    ParamSpec('fovy', 'double', None, 'vertical field of view [rad]', low=math.radians(5),
+              high=math.radians(150), default_doc=_SCENE_CAMERA + ' 0.743365 (42.6 deg)'),
+    ParamSpec('rate', 'double', None, 'frame rate [Hz] (a timer on the node clock)', low=0.0,
+              above_low=True, high=60.0, default_doc=_SCENE_CAMERA + ' 5.0'),
+    ParamSpec('depth_min', 'double', None, 'nearest depth with a return [m]', low=0.0,
+              above_low=True, high=100.0, default_doc=_SCENE_CAMERA + ' 0.16'),
+    ParamSpec('depth_max', 'double', None, 'farthest depth with a return [m]', low=0.0,
+              above_low=True, high=100.0, default_doc=_SCENE_CAMERA + ' 3.0'),
+    ParamSpec('subpixel', 'double', None, 'stereo disparity noise RMS [px] (0: noise-free '
+              'depth)', low=0.0, high=10.0, default_doc=_SCENE_CAMERA + ' 0.08'),
+    ParamSpec('baseline', 'double', None, 'stereo baseline [m]', low=0.0, above_low=True,
+              high=1.0, default_doc=_SCENE_CAMERA + ' 0.055'),
+    ParamSpec('seed', 'integer', 0, 'seed of the depth noise', low=0, high=2**31 - 1,
+              read_only=True),
+    ParamSpec('armtag', 'bool', True, 'render the ArmTag (tag36h11 id 5) on the gripper'),
+))
 RECORDER = NodeSchema('recorder', COMMON)
 REPLAYER = NodeSchema('replayer', COMMON)
 STATE_PUBLISHER = NodeSchema('robot_state_publisher', (
@@ -429,7 +459,7 @@ PC_FILTER = NodeSchema('pointcloud_pipeline', (
 
 #: schema of every node, by node name
 SCHEMAS = {s.node: s for s in (SIM_DRIVER, IK_SERVICE, TRAJECTORY_SERVER, VIEWER, RECORDER,
-                               REPLAYER, STATE_PUBLISHER, PC_FILTER)}
+                               REPLAYER, STATE_PUBLISHER, PC_FILTER, CAMERA)}
 
 
 def register(schema: NodeSchema) -> NodeSchema:

@@ -4,11 +4,11 @@ The launch files (launch/px100.launch.py and .xml) and the environment hook, che
 The ``launch`` packages are not on PyPI, so the files are validated as data: the XML with
 ElementTree, the Python file compiled and its ``generate_launch_description`` read by AST.
 Both must declare robot_model, robot_name, params_file (default: config/nodes.yaml, which fits
-every robot), use_sim_time (wired to sim_driver's publish_clock) record and viewer, use every
-argument they declare and declare every one they use, start only executables that
-setup.py installs, put every node in ``robot_name``'s namespace, and switch the recorder and
-the viewer with their arguments. Where ``launch`` is importable the descriptions are also
-loaded and the Python one is run.
+every robot), use_sim_time (wired to sim_driver's publish_clock), record, viewer and camera, use
+every argument they declare and declare every one they use, start only executables that
+setup.py installs, put every node in ``robot_name``'s namespace, and switch the recorder, the
+viewer and the camera with their arguments. Where ``launch`` is importable the descriptions are
+also loaded and the Python one is run.
 """
 import ast
 import os
@@ -20,8 +20,10 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LAUNCH = os.path.join(ROOT, 'launch')
-ARGS = {'robot_model', 'robot_name', 'params_file', 'use_sim_time', 'record', 'viewer'}
-SWITCHED = {'record': 'record', 'viewer': 'viewer'}     # executable -> argument switching it
+ARGS = {'robot_model', 'robot_name', 'params_file', 'use_sim_time', 'record', 'viewer',
+        'camera'}
+#: executable -> argument switching it
+SWITCHED = {'record': 'record', 'viewer': 'viewer', 'camera': 'camera'}
 CORE = {'sim_driver', 'ik_service', 'trajectory_server'}
 
 

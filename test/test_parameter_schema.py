@@ -16,7 +16,8 @@ HELP_SCHEMAS = {
     'trajectory_server': [ps.TRAJECTORY_SERVER], 'record': [ps.RECORDER],
     'replay': [ps.REPLAYER], 'viewer': [ps.VIEWER],
     'bringup': [ps.SIM_DRIVER, ps.IK_SERVICE, ps.TRAJECTORY_SERVER, ps.STATE_PUBLISHER,
-                ps.VIEWER],
+                ps.VIEWER, ps.CAMERA],
+    'camera': [ps.CAMERA],
     'state_publisher': [ps.STATE_PUBLISHER],
     'inspect': [], 'bag_reindex': [], 'pc_filter': [ps.PC_FILTER],
 }

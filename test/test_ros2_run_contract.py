@@ -7,7 +7,8 @@ import yaml
 
 # Every executable of docs/ros_interfaces.md.
 CONTRACT_EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'state_publisher',
-                        'bringup', 'record', 'replay', 'inspect', 'viewer', 'pc_filter']
+                        'bringup', 'record', 'replay', 'inspect', 'viewer', 'pc_filter',
+                        'camera']
 
 
 def test_package_is_in_the_ament_index():

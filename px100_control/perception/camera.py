@@ -18,6 +18,10 @@ from px100_control.errors import InvalidInputError
 #: D415 stereo baseline [m] and subpixel disparity RMS [px] (Intel's depth-accuracy model)
 D415_BASELINE = 0.055
 D415_SUBPIXEL = 0.08
+#: rotation of the optical frame in camera_link (columns: optical x, y, z in the link frame):
+#: x right = -y, y down = -z, z forward = +x (REP-103; camera_link and the optical frame share
+#: their origin here)
+LINK_TO_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
 @dataclass(frozen=True)
@@ -87,6 +91,12 @@ class CameraSpec:
         T[:3, 3] = self.position
         return T
 
+    def link_pose(self) -> np.ndarray:
+        """Return the 4x4 pose of ``camera_link`` (REP-103 body: x forward, z up) in the base."""
+        T = self.optical_pose()
+        T[:3, :3] = T[:3, :3] @ LINK_TO_OPTICAL.T
+        return T
+
     def depth_sigma(self, depth: np.ndarray) -> np.ndarray:
         """Return the depth noise RMS [m] at ``depth`` [m]: z^2 * subpixel / (f * baseline)."""
         f = self.intrinsics().fy
@@ -115,6 +125,25 @@ def camera_error(spec: CameraSpec) -> Optional[str]:
     if not (math.isfinite(spec.baseline) and spec.baseline > 0.0):
         wrong.append(f'baseline must be > 0 m, got {spec.baseline}')
     return '; '.join(wrong) or None
+
+
+def view_error(spec: CameraSpec) -> Optional[str]:
+    """
+    Return why the camera sees nothing of the table, or None.
+
+    Its optical axis must meet the table plane (z = 0 of the base frame) in front of it within
+    ``depth_range`` [m] (the distance along the axis is the depth there).
+    """
+    z = spec.optical_rotation()[:, 2]
+    height = float(spec.position[2])
+    distance = -height / z[2] if abs(z[2]) > 1e-9 else math.inf
+    lo, hi = spec.depth_range
+    if not (0.0 < distance and lo <= distance <= hi):
+        seen = f'at {distance:.3g} m' if 0.0 < distance < math.inf else 'nowhere ahead'
+        return (f'position {list(spec.position)} / look_at {list(spec.look_at)} / depth_range '
+                f'{list(spec.depth_range)}: the camera sees nothing (its optical axis meets the '
+                f'table plane z = 0 {seen}, outside depth_range)')
+    return None
 
 
 def checked(spec: CameraSpec) -> CameraSpec:

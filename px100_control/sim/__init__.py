@@ -35,3 +35,8 @@ Usage (robot base frame, SI units, quaternions x, y, z, w)::
     sim.reset()          # arm to sleep, torque on, and the objects back
     sim.set_mode('waist', 'velocity')   # 'position' | 'velocity' | 'torque' | 'duty'
 """
+import os
+
+# MuJoCo picks its OpenGL backend when first imported: EGL renders the camera offscreen on the
+# CPU without a display (sim/ is imported before any module that imports mujoco)
+os.environ.setdefault('MUJOCO_GL', 'egl')

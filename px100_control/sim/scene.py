@@ -17,6 +17,11 @@ yaw [rad] (fixed axes x, y, z); sizes [m]: box = full x, y, z extents, cylinder 
 height (axis along the body's z), sphere = radius; mass [kg]; friction = sliding coefficient;
 rgba 4 floats in 0..1. ``table`` is optional and is always a box.
 
+``camera`` (optional) is the scene's RGB-D camera (:class:`~px100_control.perception.camera.
+CameraSpec`): ``position`` and ``look_at`` [m] in the base frame, ``width`` / ``height`` [px],
+``fovy`` [rad], ``rate`` [Hz], ``depth_range`` [min, max] [m], ``subpixel`` [px], ``baseline``
+[m]; a key left out takes the D415 default. The camera node uses it.
+
 :func:`load_scene` validates everything and raises
 :class:`~px100_control.errors.InvalidInputError` naming the file and every wrong field (one line
 each): unknown keys,
@@ -36,6 +41,7 @@ from px100_control.errors import InvalidInputError
 from px100_control.kinematics.iterative import chain, fk_batch
 from px100_control.kinematics.rotations import euler_sxyz_to_matrix
 from px100_control.paths import data_path
+from px100_control.perception.camera import camera_error, CameraSpec
 import yaml
 
 SHAPES = {'box': 3, 'cylinder': 2, 'sphere': 1}    # shape -> number of size values
@@ -45,7 +51,10 @@ DEFAULT_SCENE = 'pick_place'
 OVERLAP_TOLERANCE = 1e-4
 _NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 _BODY_KEYS = {'name', 'shape', 'size', 'mass', 'friction', 'rgba', 'position', 'rpy'}
-_TOP_KEYS = {'name', 'description', 'table', 'fixtures', 'objects'}
+_TOP_KEYS = {'name', 'description', 'table', 'fixtures', 'objects', 'camera'}
+#: the camera block's keys: number of values (None: one integer)
+_CAMERA_KEYS = {'position': 3, 'look_at': 3, 'width': None, 'height': None, 'fovy': 1,
+                'rate': 1, 'depth_range': 2, 'subpixel': 1, 'baseline': 1}
 _DEFAULT_RGBA = {'object': (0.8, 0.3, 0.2, 1.0), 'fixture': (0.45, 0.45, 0.5, 1.0),
                  'table': (0.76, 0.65, 0.5, 1.0)}
 
@@ -96,6 +105,7 @@ class Scene:
     path: str
     bodies: Tuple[SceneBody, ...]
     description: str = ''
+    camera: Optional[CameraSpec] = None
 
     @property
     def objects(self) -> Tuple[SceneBody, ...]:
@@ -251,6 +261,36 @@ def _body(where: str, raw, kind: str, problems: List[str]) -> Optional[SceneBody
     return SceneBody(name, kind, shape, size, mass, friction[0], rgba, position, rpy)
 
 
+def _camera(where: str, raw, problems: List[str]) -> Optional[CameraSpec]:
+    """Return the CameraSpec of a scene's ``camera`` block, or None after adding its problems."""
+    if not isinstance(raw, dict):
+        problems.append(f'{where} must be a mapping, not {raw!r}')
+        return None
+    unknown = _unknown_keys(where, raw, set(_CAMERA_KEYS))
+    values, wrong = {}, []
+    for key, count in _CAMERA_KEYS.items():
+        if key not in raw:
+            continue
+        if count is None:
+            if isinstance(raw[key], bool) or not isinstance(raw[key], int):
+                wrong.append(f'{key} must be an integer, not {raw[key]!r}')
+            else:
+                values[key] = raw[key]
+            continue
+        try:
+            got = _numbers(f'{key}', raw[key], count)
+        except InvalidInputError as exc:
+            wrong.append(str(exc))
+            continue
+        values[key] = got[0] if count == 1 else got
+    if unknown:
+        problems.append(unknown)
+    error = camera_error(CameraSpec(**values)) if not wrong else None
+    if wrong or error:          # one line for the block: every wrong field of it named
+        problems.append(f"{where}: {'; '.join(wrong + ([error] if error else []))}")
+    return None if (unknown or wrong or error) else CameraSpec(**values)
+
+
 def _overlaps(label: str, bodies: Sequence[SceneBody]) -> List[str]:
     """Return one problem per pair of bodies (one of them an object) that interpenetrate."""
     problems = []
@@ -299,8 +339,10 @@ def parse_scene(data, path: str = '<scene>', robot=None) -> Scene:
     problems += [f"{label}: duplicate body name '{n}'"
                  for n in sorted({n for n in names if names.count(n) > 1})]
     problems += _overlaps(label, bodies)
+    camera = (_camera(f'{label}: camera', data['camera'], problems)
+              if data.get('camera') is not None else None)
     scene = Scene(name=name, path=path, bodies=tuple(bodies),
-                  description=str(data.get('description', '')))
+                  description=str(data.get('description', '')), camera=camera)
     if robot is not None and not problems:
         problems += reach_problems(scene, robot)
     if problems:

@@ -4,6 +4,7 @@ import math
 
 from px100_control.errors import InvalidInputError
 from px100_control.models.registry import load_robot
+from px100_control.perception.camera import CameraSpec
 from px100_control.sim.scene import available_scenes, load_scene, parse_scene, reach_margin
 import pytest
 import yaml
@@ -127,3 +128,21 @@ def test_bad_yaml_is_one_line(tmp_path):
         load_scene(str(bad))
     assert len(str(err.value).splitlines()) == 1, str(err.value)
     assert 'not valid YAML at line' in str(err.value)
+
+
+def test_scene_camera_block(raw, px100):
+    """pick_place has the D415 camera; a scene without the block has none; wrong fields named."""
+    assert load_scene('pick_place', px100).camera == CameraSpec(fovy=0.743365)
+    data = copy.deepcopy(raw)
+    del data['camera']
+    assert parse_scene(data, 'pick_place.yaml').camera is None
+    data['camera'] = {'position': [0.1, math.nan, 0.6], 'width': 8, 'rate': 0.0, 'zoom': 2}
+    with pytest.raises(InvalidInputError, match=r"camera: unknown key\(s\) \['zoom'\]"):
+        parse_scene(data, 'pick_place.yaml')
+    del data['camera']['zoom']
+    with pytest.raises(InvalidInputError, match=r'camera: position contains NaN.*width and '
+                                                r'height must be 16..4096.*rate must be'):
+        parse_scene(data, 'pick_place.yaml')
+    data['camera'] = {'width': 640.5}
+    with pytest.raises(InvalidInputError, match='width must be an integer'):
+        parse_scene(data, 'pick_place.yaml')
