@@ -285,7 +285,7 @@ def _camera(where: str, raw, problems: List[str]) -> Optional[CameraSpec]:
         values[key] = got[0] if count == 1 else got
     if unknown:
         problems.append(unknown)
-    error = camera_error(CameraSpec(**values)) if not wrong else None
+    error = camera_error(CameraSpec(**values))   # the fields that parsed, checked together
     if wrong or error:          # one line for the block: every wrong field of it named
         problems.append(f"{where}: {'; '.join(wrong + ([error] if error else []))}")
     return None if (unknown or wrong or error) else CameraSpec(**values)
