@@ -14,6 +14,11 @@ rclpy's deserializer, a test a plain function), so the clock and the middleware 
 - Both at most one /tf message per ``period_ns`` of log time each; stamps are the messages'
   header stamps (their log time [ns since the epoch] when zero). Translations [m], quaternions
   (x, y, z, w).
+- A live /tf wins: ``live()`` (injected; the recorder asks the graph whether /tf has a
+  publisher, e.g. robot_state_publisher) is asked at most every LIVE_CHECK_S; once it says
+  yes, no /tf is computed any more (the backlog is dropped) and the recorder records the live
+  /tf and /tf_static as they are, so the bag never holds the same frames twice from two
+  sources. Graphs without a /tf publisher (older bringups) keep the computed /tf.
 """
 import threading
 import time
@@ -31,6 +36,8 @@ from px100_control.wire.cdr import string_message
 
 #: joint states kept for /tf while the URDF is being parsed at start-up
 TF_BACKLOG = 20000
+#: how often [s, monotonic] a recorder writing /tf looks for a live /tf publisher
+LIVE_CHECK_S = 0.05
 #: without a published robot_description, the model's is written this long [s] after the
 #: first joint_states
 DESCRIPTION_WAIT_S = 1.5
@@ -58,13 +65,16 @@ class TfRecording:
     :param prefix: the robot's topics start with it (``/px100/``): ``<prefix>joint_states``,
         ``<prefix>world/markers``, ``<prefix>robot_description``
     :param enabled: write /tf at all (False: only the description fallback)
+    :param live: live() -> True when the graph has a /tf publisher of its own (then this
+        stops writing /tf for good)
     """
 
     def __init__(self, bag: BagWriter, robot_name: str, model_name: str, period_ns: int,
                  decode_joint_state: JointStateDecoder, decode_markers: MarkerDecoder,
                  decode_string: Callable[[bytes], str], log: Callable[[str, str], None],
                  prefix: str, enabled: bool = True,
-                 encode_string: Callable[[str], bytes] = string_message):
+                 encode_string: Callable[[str], bytes] = string_message,
+                 live: Callable[[], bool] = lambda: False):
         self.bag, self.robot_name, self.model_name = bag, robot_name, model_name
         self.js_topic = prefix + 'joint_states'
         self.markers_topic = prefix + 'world/markers'
@@ -85,6 +95,10 @@ class TfRecording:
         self.first_js_at: Optional[float] = None
         self._last_tf_ns = 0
         self._last_object_tf_ns = 0
+        self._live = live
+        self._next_live_check = 0.0
+        #: True once a live /tf publisher was seen (this writes no /tf since)
+        self.live_seen = False
 
     # -- URDF sources ---------------------------------------------------------------------------
     def load_model(self) -> None:
@@ -140,12 +154,28 @@ class TfRecording:
         joint_states and world/markers give /tf; a robot_description gives its URDF (unless
         ``description`` is False).
         """
+        if topic in (self.js_topic, self.markers_topic) and self.enabled:
+            self._check_live(now)
         if topic == self.js_topic and self.enabled:
             self.joint_states(data, log_ns, now)
         elif topic == self.markers_topic and self.enabled:
             self.markers(data, log_ns)
         elif description and topic == self.description_topic:
             self.description(data)
+
+    def _check_live(self, now: float) -> None:
+        """Stop computing /tf once the graph has a live /tf publisher (asked now and then)."""
+        if now < self._next_live_check:
+            return
+        self._next_live_check = now + LIVE_CHECK_S
+        try:
+            live = bool(self._live())
+        except Exception:  # the graph cannot be asked (shutting down): keep going as before
+            return
+        if live:
+            self.enabled, self.live_seen, self.backlog = False, True, []
+            self._log('info', '/tf has a live publisher: recording it; no /tf is computed '
+                              'from joint_states any more')
 
     def joint_states(self, data: bytes, log_ns: int, now: float) -> None:
         """Write /tf of one recorded JointState (log time [ns], monotonic ``now`` [s])."""
