@@ -118,7 +118,9 @@ _WORDS = {'call': ('request', 'response'), 'goal': ('goal', 'goal reply'),
 
 
 def _plural(n: int, word: str) -> str:
-    return f'{n} {word}' + ('' if n == 1 else 's')
+    if n == 1:
+        return f'{n} {word}'
+    return f'{n} {word[:-1]}ies' if word.endswith('y') else f'{n} {word}s'
 
 
 def format_calls(summaries: Iterable[CallSummary]) -> str:
