@@ -15,9 +15,9 @@ rclpy's deserializer, a test a plain function), so the clock and the middleware 
   header stamps (their log time [ns since the epoch] when zero). Translations [m], quaternions
   (x, y, z, w).
 - A live /tf wins: ``live()`` (injected; the recorder asks the graph whether /tf has a
-  publisher, e.g. robot_state_publisher) is asked at most every LIVE_CHECK_S; once it says
-  yes, no /tf is computed any more (the backlog is dropped) and the recorder records the live
-  /tf and /tf_static as they are, so the bag never holds the same frames twice from two
+  publisher, e.g. robot_state_publisher) is asked before each computed /tf is written; once it
+  says yes, no /tf is computed any more (the backlog is dropped) and the recorder records the
+  live /tf and /tf_static as they are, so the bag never holds the same frames from two
   sources. Graphs without a /tf publisher (older bringups) keep the computed /tf.
 """
 import threading
@@ -36,8 +36,6 @@ from px100_control.wire.cdr import string_message
 
 #: joint states kept for /tf while the URDF is being parsed at start-up
 TF_BACKLOG = 20000
-#: how often [s, monotonic] a recorder writing /tf looks for a live /tf publisher
-LIVE_CHECK_S = 0.05
 #: without a published robot_description, the model's is written this long [s] after the
 #: first joint_states
 DESCRIPTION_WAIT_S = 1.5
@@ -96,7 +94,6 @@ class TfRecording:
         self._last_tf_ns = 0
         self._last_object_tf_ns = 0
         self._live = live
-        self._next_live_check = 0.0
         #: True once a live /tf publisher was seen (this writes no /tf since)
         self.live_seen = False
 
@@ -154,8 +151,6 @@ class TfRecording:
         joint_states and world/markers give /tf; a robot_description gives its URDF (unless
         ``description`` is False).
         """
-        if topic in (self.js_topic, self.markers_topic) and self.enabled:
-            self._check_live(now)
         if topic == self.js_topic and self.enabled:
             self.joint_states(data, log_ns, now)
         elif topic == self.markers_topic and self.enabled:
@@ -163,19 +158,18 @@ class TfRecording:
         elif description and topic == self.description_topic:
             self.description(data)
 
-    def _check_live(self, now: float) -> None:
-        """Stop computing /tf once the graph has a live /tf publisher (asked now and then)."""
-        if now < self._next_live_check:
-            return
-        self._next_live_check = now + LIVE_CHECK_S
+    def _live_now(self) -> bool:
+        """Return True (and stop computing /tf for good) once the graph has a /tf publisher."""
         try:
             live = bool(self._live())
-        except Exception:  # the graph cannot be asked (shutting down): keep going as before
-            return
+        except Exception as exc:  # the graph cannot be asked (shutting down): go on as before
+            self._log('debug', f'/tf publishers cannot be counted ({exc})')
+            return False
         if live:
             self.enabled, self.live_seen, self.backlog = False, True, []
             self._log('info', '/tf has a live publisher: recording it; no /tf is computed '
                               'from joint_states any more')
+        return live
 
     def joint_states(self, data: bytes, log_ns: int, now: float) -> None:
         """Write /tf of one recorded JointState (log time [ns], monotonic ``now`` [s])."""
@@ -223,6 +217,8 @@ class TfRecording:
             self._last_object_tf_ns = log_ns
 
     def _write(self, entries, stamp_ns: int, log_ns: int) -> bool:
+        if self.live_seen or self._live_now():
+            return False
         try:
             if not self.bag.has_topic(TF_TOPIC):
                 self.bag.add_topic(TF_TOPIC, TF_TYPE, [TF_QOS])

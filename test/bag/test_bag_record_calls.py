@@ -298,3 +298,46 @@ def _replay_sends_none_of_them(rclpy_context, spin_node, bag):
     assert wait_until(lambda: listener.count(CHATTER) == 2, 10.0)
     time.sleep(0.2)  # anything else sent would be here by now (the chatter came after it)
     assert listener.count(GROUP) == 0 and listener.count(RESET_EV) == 0
+
+
+def test_a_live_tf_publisher_replaces_the_computed_tf(rclpy_context, spin_node, tmp_path):
+    """Computed /tf while the graph has no /tf publisher; only the live one once it appears."""
+    import rclpy
+    from bag_ros_support import FakeRobot
+    from geometry_msgs.msg import TransformStamped
+    from px100_control.ros.recorder import Recorder
+    from tf2_msgs.msg import TFMessage
+    other = rclpy.Context()
+    rclpy.init(context=other)
+    try:
+        fake = FakeRobot('fake_tf_robot', context=other)
+        bag = str(tmp_path / 'tf')
+        with Recorder(bag, robot_name='px100', context=rclpy_context, tf_rate=1000.0) as rec:
+            assert fake.wait_for_subscribers([fake.js], 30.0)
+            assert rec.node.tf.model_ready.wait(60.0)
+            for seq in range(5):   # 5 ms apart: each gets its /tf (tf_rate 1 kHz)
+                fake.js.publish(fake.joint_state(seq))
+                time.sleep(0.005)
+            assert wait_until(lambda: '/tf' in rec.node.bag.topics
+                              and rec.node.bag.topics['/tf'].message_count == 5, 20.0)
+            live = fake.create_publisher(TFMessage, '/tf', 100)
+            # both sides: the recorder's graph shows the publisher (its data is taken after that)
+            assert wait_until(lambda: live.get_subscription_count() >= 1
+                              and rec.node.count_publishers('/tf') >= 1, 30.0)
+            for seq in range(5, 10):
+                fake.js.publish(fake.joint_state(seq))
+                live.publish(TFMessage(transforms=[TransformStamped(child_frame_id=f'live{seq}')]))
+                time.sleep(0.005)
+            assert wait_until(lambda: rec.node.bag.topics['/tf'].message_count >= 10, 20.0)
+            assert wait_until(
+                lambda: rec.node.bag.topics['/px100/joint_states'].message_count == 10, 20.0)
+            assert rec.node.tf.live_seen
+        fake.destroy_node()
+    finally:
+        other.try_shutdown()
+    with BagReader(bag) as reader:
+        frames = [[t.child_frame_id for t in reader.decode(m).transforms]
+                  for m in reader.iter_raw(['/tf'])]
+    assert len(frames) == 10, frames
+    assert all('px100/ee_gripper_link' in f for f in frames[:5])
+    assert frames[5:] == [[f'live{seq}'] for seq in range(5, 10)]
