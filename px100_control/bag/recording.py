@@ -102,7 +102,7 @@ class TopicSelection:
         ``--all-topics``); also when nothing else is asked for
     :param robot_only: only the namespace's topics plus ``/diagnostics``, ``/tf`` and
         ``/tf_static``; with all_topics, all of them: hidden ones, service events and action
-        topics included (None: True unless all_topics, all_services or all_actions was asked)
+        topics included (None: True when nothing else was asked for)
     :param all_services: every service's events ``<service>/_service_event`` (``-a``,
         ``--all-services``; None: as all_topics when it was asked for)
     :param all_actions: every action's five topics (``-a``, ``--all-actions``, as rosbag2
@@ -117,7 +117,7 @@ class TopicSelection:
         self.namespace = namespace
         explicit = [resolve_topic(t, namespace) for t in (topics or ())]
         asked = bool(all_topics) or bool(all_services) or bool(all_actions)
-        self.robot_only = (not asked) if robot_only is None else bool(robot_only)
+        self.robot_only = (not (asked or explicit)) if robot_only is None else bool(robot_only)
         self.all_topics = bool(all_topics) or not (explicit or asked)
         self.all_services = bool(all_topics) if all_services is None else bool(all_services)
         self.all_actions = bool(all_topics) if all_actions is None else bool(all_actions)

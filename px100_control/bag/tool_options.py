@@ -46,6 +46,20 @@ def add_record_arguments(parser) -> None:
                         help='write a chunk at least this often [s]: what a SIGKILL can lose')
 
 
+def record_selection(options) -> dict:
+    """
+    Return the recorder's selection keywords of parsed ``record`` options.
+
+    ``-a`` is all three kinds (topics, service events, actions); ``--all-topics``,
+    ``--all-services``, ``--all-actions`` one each; none of them (and no TOPIC): the robot view.
+    """
+    return {'topics': options.topics, 'robot_only': options.robot_only,
+            'all_topics': options.all or options.all_topics,
+            'all_services': options.all or options.all_services,
+            'all_actions': options.all or options.all_actions,
+            'include_hidden_topics': options.include_hidden_topics}
+
+
 def add_replay_arguments(parser) -> None:
     """Add the options of ``replay`` to an argparse parser (``--remap``: see extract_remaps)."""
     parser.add_argument('bag', help='bag directory (or .mcap file)')

@@ -52,7 +52,7 @@ import weakref
 from px100_control.bag.recording import (check_positive, default_output_dir, StopConditions,
                                          TF_TOPIC, TopicSelection)
 from px100_control.bag.tf_recording import TfRecording
-from px100_control.bag.tool_options import add_record_arguments
+from px100_control.bag.tool_options import add_record_arguments, record_selection
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
@@ -334,11 +334,7 @@ def main(args=None) -> int:
     options, argv = parse_cli('Record topics to a rosbag2-compatible MCAP bag.', args,
                               add_record_arguments, (RECORDER,))
     return run_bag_tool('record', argv, lambda: RecorderNode(
-        output=options.output, topics=options.topics,
-        all_topics=options.all or options.all_topics, robot_only=options.robot_only,
-        all_services=options.all or options.all_services,
-        all_actions=options.all or options.all_actions,
-        include_hidden_topics=options.include_hidden_topics,
+        output=options.output, **record_selection(options),
         duration=options.duration, max_messages=options.max_messages,
         idle_timeout=options.idle_timeout, write_tf=not options.no_tf,
         tf_rate=options.tf_rate, write_description=not options.no_robot_description,
