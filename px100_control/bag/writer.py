@@ -106,12 +106,14 @@ class BagWriter:
 
     def add_topic(self, topic: str, type_name: str, offered_qos_profiles: Iterable[dict] = (),
                   type_description_hash: Optional[str] = None,
-                  msgdef: Optional[str] = None) -> md.TopicRecord:
+                  msgdef: Optional[str] = None,
+                  msgdef_encoding: str = 'ros2msg') -> md.TopicRecord:
         """
         Add a topic (a schema for its type if new, and a channel); return its record.
 
         :param offered_qos_profiles: QoS profile dicts of its publishers (see bag.metadata)
-        :param msgdef: the concatenated ros2msg definition; looked up when not given
+        :param msgdef: the concatenated definition; looked up when not given
+        :param msgdef_encoding: its schema encoding, 'ros2msg' or 'ros2idl'
         :raises BagError: malformed type, unknown definition, topic added with another type
         """
         full = normalize_type(type_name)
@@ -125,7 +127,8 @@ class BagWriter:
                                    f"'{self.topics[topic].type_name}', not '{full}'")
                 return self.topics[topic]
             if full not in self._schemas:
-                encoding, text = ('ros2msg', msgdef) if msgdef is not None else schema(full)
+                encoding, text = ((msgdef_encoding, msgdef) if msgdef is not None
+                                  else schema(full))
                 self._schemas[full] = self._writer.add_schema(full, encoding,
                                                               text.encode('utf-8'))
             profiles = [dict(p) for p in offered_qos_profiles]
