@@ -1,7 +1,9 @@
 """
 ``ros2 run px100_control inspect BAG``: print a bag's summary and write plots of the run.
 
-Prints the files, time span and, per topic, type, message count, rate and QoS. Unless
+Prints the files, time span and, per topic, type, message count, rate and QoS, then the
+calls: per service and action, the requests and responses (goals, cancels, results) counted
+from their ``_service_event`` topics (:mod:`px100_control.bag.calls`). Unless
 ``--no-plots``, writes into ``--output`` (default ``<bag>_plots``): ``joints.png`` (joint
 positions and setpoints over time), ``tracking_error.png`` (setpoint - measured),
 ``ee_path.png`` (the end-effector path in 3D: ee_pose, else forward kinematics),
@@ -18,6 +20,7 @@ import sys
 from typing import List, Optional
 
 from px100_control.bag import plots
+from px100_control.bag.calls import format_calls, summarise_calls
 from px100_control.bag.plots import default_output_dir
 from px100_control.bag.reader import BagReader, BagSummary
 from px100_control.bag.tf import TfTree
@@ -142,6 +145,9 @@ def main(args=None) -> int:
             reader.check_topics(options.topics)
             summary = reader.summary()
             print(format_summary(summary))
+            calls = format_calls(summarise_calls(reader))
+            if calls:
+                print(calls)
             if summary.message_count == 0:
                 raise BagError(f'{summary.path}: the bag is empty (no messages)')
             if options.no_plots:

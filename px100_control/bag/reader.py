@@ -213,6 +213,8 @@ class BagReader:
         self.qos: Dict[str, List[dict]] = {}
         self.type_hashes: Dict[str, str] = {}
         self.schema_texts: Dict[str, str] = {}
+        #: type name -> schema encoding ('ros2msg', or 'ros2idl' for service/action types)
+        self.schema_encodings: Dict[str, str] = {}
         for f in self._files:
             for channel in f.channels.values():
                 schema = f.schemas.get(channel.schema_id)
@@ -228,6 +230,7 @@ class BagReader:
                 if schema is not None:
                     text = schema.data.decode('utf-8', 'replace')
                     self.schema_texts.setdefault(type_name, text)
+                    self.schema_encodings.setdefault(type_name, schema.encoding)
         self._decoders: Dict[str, object] = {}
 
     def close(self) -> None:
@@ -300,6 +303,10 @@ class BagReader:
         text = self.schema_texts.get(type_name)
         if not text:
             raise BagError(f"{self.path}: no message definition stored for type '{type_name}'")
+        if self.schema_encodings.get(type_name) == 'ros2idl':
+            raise BagError(f"{self.path}: '{type_name}' has a ros2idl definition (a service "
+                           'event or action type): decode it with rosbags; inspect counts '
+                           'these calls from their headers')
         try:
             decoders = definition_decoders(type_name, text)
         except Exception as exc:

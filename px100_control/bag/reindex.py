@@ -118,7 +118,8 @@ def recover_file(path: str) -> FileReport:
                         writer.add_topic(channel.topic, schema.name,
                                          md.qos_from_yaml(meta.get('offered_qos_profiles')),
                                          meta.get('topic_type_hash', ''),
-                                         msgdef=schema.data.decode('utf-8', 'replace'))
+                                         msgdef=schema.data.decode('utf-8', 'replace'),
+                                         msgdef_encoding=schema.encoding or 'ros2msg')
                     writer.write(channel.topic, record.data, record.log_time,
                                  record.publish_time)
         except Exception as exc:  # the end of the readable part: truncation or damage

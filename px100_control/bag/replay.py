@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import math
 from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
+from px100_control.bag.ros_names import action_topic, is_call_record, is_xs_command
 from px100_control.errors import BagError
 
 #: shortest wall time of one loop pass [s] (a one-message bag must not loop at 100 % CPU)
@@ -156,6 +157,23 @@ def command_topics(topics: Iterable[str], remaps: Mapping[str, str]) -> Dict[str
             if published_as.endswith('/' + suffix) or published_as == suffix:
                 out[topic] = published_as[:-len(suffix)].rstrip('/') or '/'
     return out
+
+
+def not_replayed(topic: str, send_commands: bool) -> str:
+    """
+    Return why a bag topic is never replayed ('' when it may be).
+
+    Service events (the actions' goal/cancel/result ones included) record calls that were
+    made: they are never re-sent. An action's feedback and status and the Interbotix driver's
+    commands (``commands/joint_group`` ...) are re-sent only with ``send_commands``.
+    """
+    if is_call_record(topic):
+        return 'recorded service calls are never re-sent'
+    if not send_commands and action_topic(topic) is not None:
+        return 'action topics are re-sent only with --send-commands'
+    if not send_commands and is_xs_command(topic):
+        return 'driver commands are re-sent only with --send-commands'
+    return ''
 
 
 def withheld_warning(live: Mapping[str, Sequence[str]], topics: Sequence[str]) -> str:

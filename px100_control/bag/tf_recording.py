@@ -14,6 +14,11 @@ rclpy's deserializer, a test a plain function), so the clock and the middleware 
 - Both at most one /tf message per ``period_ns`` of log time each; stamps are the messages'
   header stamps (their log time [ns since the epoch] when zero). Translations [m], quaternions
   (x, y, z, w).
+- A live /tf wins: ``live()`` (injected; the recorder asks the graph whether /tf has a
+  publisher, e.g. robot_state_publisher) is asked before each computed /tf is written; once it
+  says yes, no /tf is computed any more (the backlog is dropped) and the recorder records the
+  live /tf and /tf_static as they are, so the bag never holds the same frames from two
+  sources. Graphs without a /tf publisher (older bringups) keep the computed /tf.
 """
 import threading
 import time
@@ -58,13 +63,16 @@ class TfRecording:
     :param prefix: the robot's topics start with it (``/px100/``): ``<prefix>joint_states``,
         ``<prefix>world/markers``, ``<prefix>robot_description``
     :param enabled: write /tf at all (False: only the description fallback)
+    :param live: live() -> True when the graph has a /tf publisher of its own (then this
+        stops writing /tf for good)
     """
 
     def __init__(self, bag: BagWriter, robot_name: str, model_name: str, period_ns: int,
                  decode_joint_state: JointStateDecoder, decode_markers: MarkerDecoder,
                  decode_string: Callable[[bytes], str], log: Callable[[str, str], None],
                  prefix: str, enabled: bool = True,
-                 encode_string: Callable[[str], bytes] = string_message):
+                 encode_string: Callable[[str], bytes] = string_message,
+                 live: Callable[[], bool] = lambda: False):
         self.bag, self.robot_name, self.model_name = bag, robot_name, model_name
         self.js_topic = prefix + 'joint_states'
         self.markers_topic = prefix + 'world/markers'
@@ -85,6 +93,9 @@ class TfRecording:
         self.first_js_at: Optional[float] = None
         self._last_tf_ns = 0
         self._last_object_tf_ns = 0
+        self._live = live
+        #: True once a live /tf publisher was seen (this writes no /tf since)
+        self.live_seen = False
 
     # -- URDF sources ---------------------------------------------------------------------------
     def load_model(self) -> None:
@@ -143,6 +154,19 @@ class TfRecording:
         elif description and topic == self.description_topic:
             self.description(data)
 
+    def _live_now(self) -> bool:
+        """Return True (and stop computing /tf for good) once the graph has a /tf publisher."""
+        try:
+            live = bool(self._live())
+        except Exception as exc:  # the graph cannot be asked (shutting down): go on as before
+            self._log('debug', f'/tf publishers cannot be counted ({exc})')
+            return False
+        if live:
+            self.enabled, self.live_seen, self.backlog = False, True, []
+            self._log('info', '/tf has a live publisher: recording it; no /tf is computed '
+                              'from joint_states any more')
+        return live
+
     def joint_states(self, data: bytes, log_ns: int, now: float) -> None:
         """Write /tf of one recorded JointState (log time [ns], monotonic ``now`` [s])."""
         if self.first_js_at is None:
@@ -189,6 +213,8 @@ class TfRecording:
             self._last_object_tf_ns = log_ns
 
     def _write(self, entries, stamp_ns: int, log_ns: int) -> bool:
+        if self.live_seen or self._live_now():
+            return False
         try:
             if not self.bag.has_topic(TF_TOPIC):
                 self.bag.add_topic(TF_TOPIC, TF_TYPE, [TF_QOS])

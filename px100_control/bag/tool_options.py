@@ -13,11 +13,19 @@ def add_record_arguments(parser) -> None:
                         help='topics to record (relative names are under the robot namespace, '
                              '/<robot_name>/)')
     parser.add_argument('-a', '--all', action='store_true',
-                        help='record every topic of the graph, as ros2 bag record -a '
-                             '(hidden _topics excepted)')
+                        help='record all topics (hidden _topics excepted), services and '
+                             'actions, as ros2 bag record -a')
+    parser.add_argument('--all-topics', action='store_true',
+                        help='record all topics (hidden _topics excepted)')
+    parser.add_argument('--all-services', action='store_true',
+                        help='record all services via their <service>/_service_event topics')
+    parser.add_argument('--all-actions', action='store_true',
+                        help='record all actions: their service events, feedback and status')
+    parser.add_argument('--include-hidden-topics', action='store_true',
+                        help='with --all-topics, record the hidden _topics too')
     parser.add_argument('--robot-only', action='store_true', default=None,
-                        help='only the topics of the robot namespace and /diagnostics (the '
-                             'default when neither TOPIC nor -a is given)')
+                        help='only the robot namespace (all of it), /diagnostics, /tf and '
+                             '/tf_static (the default when nothing else is asked for)')
     parser.add_argument('-o', '--output', default=None,
                         help='bag directory to create (default rosbag2_<date>-<time>)')
     parser.add_argument('--duration', type=float, default=None,
@@ -36,6 +44,20 @@ def add_record_arguments(parser) -> None:
                         help='chunk compression (default zstd)')
     parser.add_argument('--flush-period', type=float, default=1.0,
                         help='write a chunk at least this often [s]: what a SIGKILL can lose')
+
+
+def record_selection(options) -> dict:
+    """
+    Return the recorder's selection keywords of parsed ``record`` options.
+
+    ``-a`` is all three kinds (topics, service events, actions); ``--all-topics``,
+    ``--all-services``, ``--all-actions`` one each; none of them (and no TOPIC): the robot view.
+    """
+    return {'topics': options.topics, 'robot_only': options.robot_only,
+            'all_topics': options.all or options.all_topics,
+            'all_services': options.all or options.all_services,
+            'all_actions': options.all or options.all_actions,
+            'include_hidden_topics': options.include_hidden_topics}
 
 
 def add_replay_arguments(parser) -> None:

@@ -3,7 +3,8 @@ Write rosbag2-compatible MCAP bags from serialized (CDR) message bytes.
 
 A bag is a directory ``<name>/`` holding ``<name>_0.mcap`` and ``metadata.yaml`` (rosbag2 v9,
 storage ``mcap``), as ``ros2 bag record -s mcap`` writes it: MCAP profile ``ros2``, one
-``ros2msg`` schema per type (the concatenated message definition), one ``cdr`` channel per topic
+schema per type (the concatenated definition: ``ros2msg``, or ``ros2idl`` for the service event
+and action types, :mod:`px100_control.bag.interface_defs`), one ``cdr`` channel per topic
 with ``offered_qos_profiles`` and ``topic_type_hash`` metadata, and a ``rosbag2`` metadata
 record. Messages go into compressed chunks; a chunk is written out when it is full or
 ``flush_period_s`` after its first message, so a killed writer loses at most that much
@@ -21,8 +22,9 @@ import time
 from typing import Dict, Iterable, List, Optional
 
 from px100_control.bag import metadata as md
+from px100_control.bag.interface_defs import any_type_hash, schema
 from px100_control.bag.mcap_io import McapWriter
-from px100_control.bag.msgdefs import message_definition, normalize_type, type_hash
+from px100_control.bag.msgdefs import normalize_type
 from px100_control.errors import BagError
 
 PROFILE = 'ros2'
@@ -104,12 +106,14 @@ class BagWriter:
 
     def add_topic(self, topic: str, type_name: str, offered_qos_profiles: Iterable[dict] = (),
                   type_description_hash: Optional[str] = None,
-                  msgdef: Optional[str] = None) -> md.TopicRecord:
+                  msgdef: Optional[str] = None,
+                  msgdef_encoding: str = 'ros2msg') -> md.TopicRecord:
         """
         Add a topic (a schema for its type if new, and a channel); return its record.
 
         :param offered_qos_profiles: QoS profile dicts of its publishers (see bag.metadata)
-        :param msgdef: the concatenated ros2msg definition; looked up when not given
+        :param msgdef: the concatenated definition; looked up when not given
+        :param msgdef_encoding: its schema encoding, 'ros2msg' or 'ros2idl'
         :raises BagError: malformed type, unknown definition, topic added with another type
         """
         full = normalize_type(type_name)
@@ -123,11 +127,13 @@ class BagWriter:
                                    f"'{self.topics[topic].type_name}', not '{full}'")
                 return self.topics[topic]
             if full not in self._schemas:
-                text = msgdef if msgdef is not None else message_definition(full)
-                self._schemas[full] = self._writer.add_schema(full, 'ros2msg',
+                encoding, text = ((msgdef_encoding, msgdef) if msgdef is not None
+                                  else schema(full))
+                self._schemas[full] = self._writer.add_schema(full, encoding,
                                                               text.encode('utf-8'))
             profiles = [dict(p) for p in offered_qos_profiles]
-            digest = type_hash(full) if type_description_hash is None else type_description_hash
+            digest = (any_type_hash(full) if type_description_hash is None
+                      else type_description_hash)
             self._channels[topic] = self._writer.add_channel(
                 topic, 'cdr', self._schemas[full],
                 {'offered_qos_profiles': md.qos_to_yaml(profiles), 'topic_type_hash': digest})

@@ -16,12 +16,22 @@ from std_msgs.msg import String
 
 
 def message_class(type_name: str):
-    """Return the rclpy message class of ``pkg/msg/Name`` or None when it is not installed."""
+    """
+    Return the rclpy message class of a type, or None when it is not installed.
+
+    ``pkg/msg/Name``, and the types made from services and actions: ``pkg/srv/Name_Event``,
+    ``pkg/action/Name_SendGoal_Event``, ``pkg/action/Name_FeedbackMessage``, ...
+    """
     parts = type_name.split('/')
     if len(parts) != 3:
         return None
     try:
-        return getattr(importlib.import_module(f'{parts[0]}.{parts[1]}'), parts[2])
+        module = importlib.import_module(f'{parts[0]}.{parts[1]}')
+        if hasattr(module, parts[2]):
+            return getattr(module, parts[2])
+        action, _, member = parts[2].partition('_')
+        return getattr(getattr(module, action).Impl, member) if member == 'FeedbackMessage' \
+            else None
     except (ImportError, AttributeError):
         return None
 

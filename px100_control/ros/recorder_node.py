@@ -1,29 +1,32 @@
 """
 Record topics to a rosbag2-compatible MCAP bag: ``ros2 run px100_control record``.
 
-Command line (the options of ``ros2 bag record``, plus stop conditions)::
+Command line (the options of ``ros2 bag record``, Jazzy, plus stop conditions)::
 
-    record [TOPIC ...] [-a/--all] [--robot-only] [-o/--output DIR] [--duration S]
+    record [TOPIC ...] [-a/--all] [--all-topics] [--all-services] [--all-actions]
+           [--include-hidden-topics] [--robot-only] [-o/--output DIR] [--duration S]
            [--max-messages N] [--idle-timeout S] [--no-tf] [--tf-rate HZ]
            [--compression zstd|lz4|none] [--flush-period S]
            [--ros-args -r __ns:=/px100 -p robot_name:=px100 -p robot_model:=px100]
 
 The node ``recorder`` lives in the robot namespace (``/px100`` by default, see
 :mod:`px100_control.ros.common`); topics without a leading ``/`` resolve in it
-(``joint_states`` is ``/px100/joint_states``). ``-a`` records every topic of the graph, as
-``ros2 bag record -a`` (hidden ``_`` topics excepted); with no topic, or with
-``--robot-only``, it records the topics of the robot namespace plus ``/diagnostics``. Either
-way it keeps scanning the graph for new topics. Messages
+(``joint_states`` is ``/px100/joint_states``). ``-a``: every topic but hidden (``_``) ones and
+every service's calls (``<service>/_service_event``), as ``ros2 bag record -a``, plus every
+action's topics (goal/cancel/result service events, feedback, status; rosbag2 since Kilted).
+No topic, or ``--robot-only``: everything of the robot namespace (service events and actions
+included), ``/diagnostics``, ``/tf``, ``/tf_static``. The rules:
+:class:`~px100_control.bag.recording.TopicSelection`. New topics are picked up as they appear.
+Messages
 are recorded as the exact bytes received (raw subscriptions, no deserialisation) with the QoS
-of their publishers (transient local for ``robot_description`` and ``trajectory/status``). From
-``joint_states`` it also writes ``/tf`` (tf2_msgs/msg/TFMessage through the URDF: the recorded
-``robot_description``, else the robot model's URDF with links prefixed ``<robot_name>/``) and,
-when no robot_description is published, the model's URDF on ``/<robot_name>/robot_description``,
-so Foxglove's 3D panel shows the arm. From ``world/markers`` (the simulated scene) it writes the
-objects' frames to ``/tf``: ``<robot_name>/objects/<name>``, children of the markers' frame
-``<robot_name>/base_link``. SIGINT and SIGTERM finalise the bag; after SIGKILL the
-file is readable up to its last chunk (at most ``--flush-period`` s are lost) and
-``bag_reindex`` rebuilds it.
+of their publishers (transient local for ``robot_description`` and the action status).
+A live ``/tf`` publisher (robot_state_publisher) is recorded as it is; while the graph has
+none (older bringups), the recorder writes ``/tf`` itself from ``joint_states`` and
+``world/markers`` (:mod:`px100_control.bag.tf_recording`), never both. When no
+robot_description is published it writes the model's URDF on
+``/<robot_name>/robot_description``, so Foxglove's 3D panel shows the arm. SIGINT and SIGTERM
+finalise the bag; after SIGKILL the file is readable up to its last chunk (at most
+``--flush-period`` s are lost) and ``bag_reindex`` rebuilds it.
 
 Nothing lost at the start: the recorder subscribes at once to the contract's topics
 (docs/ros_interfaces.md: it knows their names, types and QoS), before any publisher exists, and
@@ -49,7 +52,7 @@ import weakref
 from px100_control.bag.recording import (check_positive, default_output_dir, StopConditions,
                                          TF_TOPIC, TopicSelection)
 from px100_control.bag.tf_recording import TfRecording
-from px100_control.bag.tool_options import add_record_arguments
+from px100_control.bag.tool_options import add_record_arguments, record_selection
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
@@ -82,10 +85,14 @@ class RecorderNode(Node):
     :param output: bag directory (must not exist or be empty); default rosbag2_<date>
     :param topics: topics to record (relative names under the node's namespace, the robot's);
         None = the robot's view (below)
-    :param all_topics: record every topic of the graph (hidden ``_x`` topics excepted), as
-        ``ros2 bag record -a``; also the default when no topic is given
-    :param robot_only: with all_topics, only the topics of the robot's namespace plus
-        ``/diagnostics`` (None: True when neither topics nor all_topics were given)
+    :param all_topics: record every topic of the graph (hidden ``_x`` topics excepted), and
+        unless told otherwise every service's events and action (``-a``); also the default
+        when no topic is given
+    :param robot_only: only the robot's namespace plus ``/diagnostics``, ``/tf`` and
+        ``/tf_static`` (None: True when nothing else was asked for)
+    :param all_services: every ``<service>/_service_event`` (None: as all_topics)
+    :param all_actions: every action's topics (None: as all_topics)
+    :param include_hidden_topics: with all_topics, the hidden topics too
     :param duration: stop after this many seconds [s] (None: until stopped)
     :param max_messages: stop after this many recorded messages (None: no limit)
     :param idle_timeout: stop when nothing arrived for this long [s] after the first message
@@ -102,7 +109,8 @@ class RecorderNode(Node):
 
     def __init__(self, output: Optional[str] = None, topics: Optional[Sequence[str]] = None,
                  all_topics: Optional[bool] = None, robot_only: Optional[bool] = None,
-                 duration: Optional[float] = None,
+                 all_services: Optional[bool] = None, all_actions: Optional[bool] = None,
+                 include_hidden_topics: bool = False, duration: Optional[float] = None,
                  max_messages: Optional[int] = None, idle_timeout: Optional[float] = None,
                  write_tf: bool = True, tf_rate: float = 50.0, write_description: bool = True,
                  compression: str = 'zstd', flush_period: float = 1.0,
@@ -123,7 +131,8 @@ class RecorderNode(Node):
         self.output = os.path.abspath(output) if output else default_output_dir()
         #: the robot's namespace: relative topics resolve in it ('/' for none)
         self.namespace = self.get_namespace()
-        self.selection = TopicSelection(self.namespace, topics, all_topics, robot_only)
+        self.selection = TopicSelection(self.namespace, topics, all_topics, robot_only,
+                                        all_services, all_actions, include_hidden_topics)
         self.write_description = bool(write_description)
         self.ready = threading.Event()
         self.ready_timeout = float(ready_timeout)
@@ -142,9 +151,10 @@ class RecorderNode(Node):
         self.tf = TfRecording(self.bag, self.robot_name, model_name, int(1e9 / float(tf_rate)),
                               joint_positions, world_markers, string_data, self._log,
                               self.selection.prefix, enabled=write_tf,
-                              encode_string=cdr.string_writer())
-        self.topics = RecorderTopics(self, self.bag, self._selected, lambda: self.tf.enabled,
-                                     self.selection.wanted, self._make_callback)
+                              encode_string=cdr.string_writer(),
+                              live=lambda: self.count_publishers(TF_TOPIC) > 0)
+        self.topics = RecorderTopics(self, self.bag, self._selected, self.selection.wanted,
+                                     self._make_callback)
         #: topic -> raw subscription (the client looks up what a Recorder subscribes here)
         self._subs = self.topics.subs
         try:
@@ -173,7 +183,7 @@ class RecorderNode(Node):
         getattr(self.get_logger(), level)(text)
 
     def _selected(self, topic: str) -> bool:
-        return self.selection.selected(topic, self.tf.enabled)
+        return self.selection.selected(topic)
 
     def records(self, topic: str) -> bool:
         """Return True if ``topic`` (absolute name) is one this recorder records."""
@@ -332,8 +342,7 @@ def main(args=None) -> int:
     options, argv = parse_cli('Record topics to a rosbag2-compatible MCAP bag.', args,
                               add_record_arguments, (RECORDER,))
     return run_bag_tool('record', argv, lambda: RecorderNode(
-        output=options.output, topics=options.topics, all_topics=options.all,
-        robot_only=options.robot_only,
+        output=options.output, **record_selection(options),
         duration=options.duration, max_messages=options.max_messages,
         idle_timeout=options.idle_timeout, write_tf=not options.no_tf,
         tf_rate=options.tf_rate, write_description=not options.no_robot_description,

@@ -9,7 +9,6 @@ publisher matches, and added to the bag with the QoS profiles they offer.
 """
 from typing import Callable, Dict, Iterable, List
 
-from px100_control.bag.recording import TF_TOPIC
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.ros.bag_qos import (ahead_qos, all_latched, assumed_offer, describe,
@@ -34,16 +33,14 @@ class RecorderTopics:
     :param node: the recorder node (its graph queries, subscriptions and logger)
     :param bag: the bag being written
     :param selected: selected(topic) -> True if the topic is recorded
-    :param tf_written: tf_written() -> True while the recorder writes /tf itself
     :param wanted: the topics asked for by name (not recording one of them is a warning)
     :param callback_for: callback_for(topic) -> the raw subscription's callback
     """
 
     def __init__(self, node: Node, bag: BagWriter, selected: Callable[[str], bool],
-                 tf_written: Callable[[], bool], wanted: Iterable[str],
-                 callback_for: Callable[[str], Callable]):
+                 wanted: Iterable[str], callback_for: Callable[[str], Callable]):
         self.node, self.bag = node, bag
-        self._selected, self._tf_written = selected, tf_written
+        self._selected = selected
         self._wanted, self._callback_for = set(wanted), callback_for
         self._log = node.get_logger()
         #: topic -> its raw subscription
@@ -65,7 +62,7 @@ class RecorderTopics:
     def subscribe_contract(self, contract: Iterable[tuple]) -> None:
         """Subscribe to the selected (topic, type, latched) now, before their publishers exist."""
         for topic, type_name, latched in contract:
-            if not self._selected(topic) or (self._tf_written() and topic == TF_TOPIC):
+            if not self._selected(topic):
                 continue
             cls = message_class(type_name)
             if cls is None:
@@ -127,7 +124,7 @@ class RecorderTopics:
         """Return the selected topics whose publishers are not all matched yet."""
         out = []
         for topic, _ in self.node.get_topic_names_and_types():
-            if topic in self.skipped or not self._selected(topic) or topic == TF_TOPIC:
+            if topic in self.skipped or not self._selected(topic):
                 continue
             n = self.node.count_publishers(topic)
             if n == 0:
@@ -148,9 +145,6 @@ class RecorderTopics:
                 self._add_published(topic, types[0])
 
     def _add_published(self, topic: str, type_name: str) -> None:
-        if self._tf_written() and topic == TF_TOPIC:
-            self.skip(topic, '/tf is written by the recorder itself from joint_states')
-            return
         pubs = self.node.get_publishers_info_by_topic(topic)
         if not pubs:
             return  # a subscriber only: wait for a publisher (its type and QoS)

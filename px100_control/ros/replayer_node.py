@@ -18,7 +18,11 @@ Safety: when a live driver or trajectory_server runs in a namespace the bag repl
 :mod:`px100_control.ros.peers`), the replayer warns, naming them, and by default does not
 re-send the bag's goals (``trajectory/goal``) and setpoints (``commands/joint_setpoints``):
 they would move the live arm again. ``--send-commands`` (``send_commands=True``) sends them
-anyway. Replayed ``joint_states`` beside a live driver are sent, with a warning.
+anyway. Replayed ``joint_states`` beside a live driver are sent, with a warning. Recorded
+service calls (``<service>/_service_event``, the actions' goal/cancel/result events included)
+are never re-sent; an action's feedback and status and the Interbotix commands
+(``commands/joint_group``, ``joint_single``, ``joint_trajectory``) only with
+``--send-commands`` (:func:`px100_control.bag.replay.not_replayed`).
 
 Python: ``ReplayerNode(bag, rate=..., topics=..., remap=...)``, then ``start()``; ``done`` is
 set when the replay ended.
@@ -29,8 +33,8 @@ import time
 from typing import Dict, List, Optional, Sequence
 
 from px100_control.bag.reader import BagReader
-from px100_control.bag.replay import (command_topics, parse_remaps, progress_text,
-                                      ReplaySchedule, resolve_topic)
+from px100_control.bag.replay import (command_topics, not_replayed, parse_remaps,
+                                      progress_text, ReplaySchedule, resolve_topic)
 from px100_control.bag.tool_options import add_replay_arguments, extract_remaps
 from px100_control.errors import BagError
 from px100_control.models.registry import read_robot_file
@@ -86,6 +90,7 @@ class ReplayerNode(Node):
             if not (float(value) >= 0 and float(value) < float('inf')):
                 raise BagError(f'{what} must be a number >= 0, got {value!r}')
         self.reader = BagReader(bag)
+        self.send_commands = bool(send_commands)
         try:
             self._make_publishers(ns, topics, remap)
             self._make_schedule(rate, loop, start_offset)
@@ -96,7 +101,6 @@ class ReplayerNode(Node):
         self.wait_for_subscribers = float(wait_for_subscribers)
         self.min_subscribers = max(1, int(min_subscribers))
         self.progress = bool(progress)
-        self.send_commands = bool(send_commands)
         self.guard = CommandGuard(self, {}, threading.Event())
         self.published = 0
         self.passes = 0
@@ -116,7 +120,15 @@ class ReplayerNode(Node):
             raise BagError(f"{reader.path}: cannot remap {', '.join(unknown)}: not in the bag "
                            f"(it has: {', '.join(sorted(reader.topics))})")
         self.publishers_by_topic: Dict[str, object] = {}
+        #: bag topics left out for good: topic -> why (service events, action topics, ...)
+        self.not_replayed = {t: why for t in (explicit or reader.topics)
+                             if (why := not_replayed(t, self.send_commands))}
+        for why in sorted(set(self.not_replayed.values())):
+            self.get_logger().info(f'not replayed ({why}): ' + ', '.join(
+                sorted(t for t, w in self.not_replayed.items() if w == why)))
         for topic in (explicit or sorted(reader.topics)):
+            if topic in self.not_replayed:
+                continue
             type_name = reader.topics[topic]
             cls = message_class(type_name) if type_name else None
             if cls is None:

@@ -199,3 +199,39 @@ def test_undecodable_type_definition(tmp_path):
         assert reader.summary().message_count == 1  # raw access still works
         with pytest.raises(BagError, match=r"definition of 'odd_msgs/msg/Thing' cannot be"):
             list(reader.iter_decoded(['/odd']))
+
+
+def test_reindex_keeps_the_idl_schema_of_service_events(tmp_path):
+    """A truncated bag of service events is rebuilt with its ros2idl schema (rosbags reads it)."""
+    from pathlib import Path
+
+    from px100_control.bag.writer import BagWriter
+    from rclpy.serialization import serialize_message
+    from rosbags.highlevel import AnyReader
+    from std_srvs.srv import Trigger
+    bag = str(tmp_path / 'calls')
+    topic = '/px100/reset/_service_event'
+    writer = BagWriter(bag, flush_period_s=0.0)
+    writer.add_topic(topic, 'std_srvs/srv/Trigger_Event')
+    for seq in range(3):
+        event = Trigger.Event()
+        event.info.event_type, event.info.sequence_number = 2, seq
+        event.response.append(Trigger.Response(success=True, message=f'reset {seq}'))
+        writer.write(topic, serialize_message(event), 1_700_000_000_000_000_000 + seq)
+    path = writer.path
+    complete = os.path.getsize(path)       # every chunk is out (flush period 0)
+    writer.close()
+    with open(path, 'r+b') as f:
+        f.truncate(complete)               # no summary, no footer: as after a SIGKILL
+    os.remove(os.path.join(bag, 'metadata.yaml'))
+    result = reindex.reindex(bag)
+    assert result.rebuilt and result.message_count == 3
+    with AnyReader([Path(bag)]) as reader:
+        (conn,) = reader.connections
+        assert conn.msgdef.format.name == 'IDL'
+        got = [reader.deserialize(raw, conn.msgtype).response[0].message
+               for _, _, raw in reader.messages()]
+    assert got == ['reset 0', 'reset 1', 'reset 2']
+    with BagReader(bag) as reader:       # this package's own reader says what to use instead
+        with pytest.raises(BagError, match='ros2idl definition .* decode it with rosbags'):
+            reader.decode(next(reader.iter_raw()))

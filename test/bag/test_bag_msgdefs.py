@@ -99,3 +99,38 @@ def test_unknown_type_is_a_clear_error():
     with pytest.raises(msgdefs.MessageTypeError, match='nosuch_msgs/msg/Thing'):
         msgdefs.message_definition('nosuch_msgs/Thing')
     assert msgdefs.type_hash('nosuch_msgs/msg/Thing') == ''
+
+
+GENERATED = ['std_srvs/srv/Trigger_Event', 'action_msgs/srv/CancelGoal_Event',
+             'px100_control_msgs/srv/ComputeIK_Event', 'interbotix_xs_msgs/srv/RobotInfo_Event',
+             'control_msgs/action/FollowJointTrajectory_SendGoal_Event',
+             'control_msgs/action/FollowJointTrajectory_GetResult_Event',
+             'control_msgs/action/FollowJointTrajectory_FeedbackMessage',
+             'control_msgs/action/GripperCommand_SendGoal_Event']
+
+
+@pytest.mark.parametrize('type_name', GENERATED)
+def test_service_and_action_types_get_idl_schemas_rosbags_reads(type_name):
+    """ros2idl in rosbag2's IDL concatenation: rosbags parses it and finds the same hash."""
+    from px100_control.bag import interface_defs
+    from rosbags.typesys import get_typestore, get_types_from_idl, Stores
+    encoding, text = interface_defs.schema(type_name)
+    assert encoding == 'ros2idl'
+    chunks = text.split('=' * 80 + '\n')[1:]
+    assert chunks[0].startswith(f'IDL: {type_name}\n') and '#include' not in text
+    types = {}
+    for chunk in chunks:
+        types.update(get_types_from_idl(chunk.split('\n', 1)[1]))
+    store = get_typestore(Stores.EMPTY)
+    store.register(types)
+    assert store.hash_rihs01(type_name) == interface_defs.any_type_hash(type_name)
+    assert interface_defs.any_type_hash(type_name).startswith('RIHS01_')
+
+
+def test_msg_types_keep_their_ros2msg_schema():
+    """A .msg type is not generated: its schema is the ros2msg concatenation as before."""
+    from px100_control.bag import interface_defs
+    assert interface_defs.schema('interbotix_xs_msgs/msg/JointGroupCommand') == (
+        'ros2msg', msgdefs.message_definition('interbotix_xs_msgs/msg/JointGroupCommand'))
+    with pytest.raises(msgdefs.MessageTypeError, match='nosuch_srvs/srv/X_Event'):
+        interface_defs.schema('nosuch_srvs/srv/X_Event')

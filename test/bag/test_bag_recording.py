@@ -9,8 +9,8 @@ import os
 from bag_support import decode, joint_state, string, T0_NS
 from px100_control.bag import tf_recording
 from px100_control.bag.reader import BagReader
-from px100_control.bag.recording import (CONTRACT_TOPICS, default_output_dir, StopConditions,
-                                         TopicSelection)
+from px100_control.bag.recording import (CONTRACT_ACTIONS, CONTRACT_SERVICES, CONTRACT_TOPICS,
+                                         default_output_dir, StopConditions, TopicSelection)
 from px100_control.bag.tf import TF_TYPE
 from px100_control.bag.tf_recording import TF_BACKLOG, TfRecording
 from px100_control.bag.world import WorldMarker
@@ -24,46 +24,85 @@ ARM = ['waist', 'shoulder', 'elbow', 'wrist_angle']
 
 # -- topic selection ----------------------------------------------------------------------------
 
-def test_default_selection_is_the_robot_namespace_and_diagnostics():
-    """No topic named: the namespace's topics and /diagnostics, not /tf, not recorder/ready."""
+def test_default_selection_is_the_robot_namespace_diagnostics_and_tf():
+    """No topic named: all of the namespace (calls included), /diagnostics, /tf, /tf_static."""
     sel = TopicSelection('/px100')
     assert (sel.all_topics, sel.robot_only) == (True, True)
-    assert sel.selected('/px100/joint_states', True)
-    assert sel.selected('/diagnostics', True)
-    assert not sel.selected('/other/joint_states', True)
-    assert not sel.selected('/px100/recorder/ready', True)
-    assert not sel.selected('/tf', True) and not sel.selected('/tf_static', True)
-    assert sel.describe() == 'all topics of /px100/ and /diagnostics'
+    for topic in ('/px100/joint_states', '/diagnostics', '/tf', '/tf_static',
+                  '/px100/compute_ik/_service_event',
+                  '/px100/arm_controller/follow_joint_trajectory/_action/feedback'):
+        assert sel.selected(topic), topic
+    assert not sel.selected('/other/joint_states')
+    assert not sel.selected('/other/compute_ik/_service_event')
+    assert not sel.selected('/px100/recorder/ready')
+    assert sel.describe().startswith('all topics of /px100/ (their service events')
 
 
-def test_all_topics_leave_out_hidden_ones_and_tf_only_when_written():
-    """-a: every topic but hidden ones; /tf is recorded when the recorder does not write it."""
+def test_all_is_topics_services_and_actions_without_hidden_topics():
+    """-a: every topic but hidden ones, every service event and every action's topics."""
     sel = TopicSelection('/px100', all_topics=True)
-    assert sel.robot_only is False and sel.describe() == 'all topics'
-    assert sel.selected('/other/joint_states', True)
-    assert not sel.selected('/px100/_hidden/x', True)
-    assert not sel.selected('/tf', True)
-    assert sel.selected('/tf', False)
+    assert sel.robot_only is False and (sel.all_services, sel.all_actions) == (True, True)
+    assert sel.describe() == 'all topics, service events, actions'
+    for topic in ('/other/joint_states', '/tf', '/tf_static', '/other/x/_service_event',
+                  '/a/_action/send_goal/_service_event', '/a/_action/cancel_goal/_service_event',
+                  '/a/_action/get_result/_service_event', '/a/_action/feedback',
+                  '/a/_action/status'):
+        assert sel.selected(topic), topic
+    assert not sel.selected('/px100/_hidden/x')
+
+
+def test_all_topics_services_actions_and_hidden_one_by_one():
+    """--all-topics, --all-services, --all-actions pick one kind; hidden ones on request."""
+    event, feedback = '/px100/compute_ik/_service_event', '/a/_action/feedback'
+    topics = TopicSelection('/px100', all_topics=True, all_services=False, all_actions=False)
+    assert topics.selected('/x') and not topics.selected(event)
+    assert not topics.selected(feedback)
+    hidden = TopicSelection('/px100', all_topics=True, all_services=False, all_actions=False,
+                            include_hidden=True)
+    assert hidden.selected('/px100/_hidden/x') and hidden.selected(event)
+    services = TopicSelection('/px100', all_services=True)
+    assert services.selected(event) and not services.selected('/x')
+    assert not services.selected('/a/_action/send_goal/_service_event')
+    assert services.robot_only is False
+    actions = TopicSelection('/px100', all_actions=True)
+    assert actions.selected(feedback) and actions.selected('/a/_action/status')
+    assert not actions.selected(event) and not actions.selected('/x')
 
 
 def test_named_topics_resolve_in_the_namespace_and_are_always_recorded():
-    """Relative names go under the namespace; a named topic is recorded even if it is /tf."""
-    sel = TopicSelection('/px100', topics=['joint_states', '/tf'])
-    assert sel.all_topics is False and sel.wanted == {'/px100/joint_states', '/tf'}
-    assert sel.selected('/tf', True) and sel.selected('/px100/joint_states', True)
-    assert not sel.selected('/px100/ee_pose', True)
-    assert sel.describe() == '/px100/joint_states, /tf'
+    """Relative names go under the namespace; a named topic is recorded even if hidden."""
+    sel = TopicSelection('/px100', topics=['joint_states', '/tf', 'x/_service_event'])
+    assert sel.all_topics is False
+    assert sel.wanted == {'/px100/joint_states', '/tf', '/px100/x/_service_event'}
+    assert sel.selected('/tf') and sel.selected('/px100/joint_states')
+    assert sel.selected('/px100/x/_service_event')
+    assert not sel.selected('/px100/ee_pose') and not sel.selected('/px100/y/_service_event')
+    assert sel.describe() == '/px100/joint_states, /px100/x/_service_event, /tf'
     both = TopicSelection('/px100', topics=['/x'], all_topics=True, robot_only=True)
-    assert both.selected('/x', True) and both.selected('/px100/ee_pose', True)
-    assert not both.selected('/y', True)
+    assert both.selected('/x') and both.selected('/px100/ee_pose')
+    assert not both.selected('/y')
 
 
 def test_contract_topics_in_a_namespace_and_at_the_root():
-    """Contract names go under the namespace; /diagnostics stays absolute; root namespace."""
+    """Contract names go under the namespace; /diagnostics, /tf stay absolute; calls too."""
     topics = {t: (ty, latched) for t, ty, latched in TopicSelection('/arm1').contract_topics()}
-    assert len(topics) == len(CONTRACT_TOPICS)
+    assert len(topics) == len(CONTRACT_TOPICS) + len(CONTRACT_SERVICES) + 5 * len(
+        CONTRACT_ACTIONS)
     assert topics['/arm1/robot_description'] == ('std_msgs/msg/String', True)
     assert topics['/diagnostics'] == ('diagnostic_msgs/msg/DiagnosticArray', False)
+    assert topics['/tf_static'] == ('tf2_msgs/msg/TFMessage', True)
+    assert topics['/arm1/commands/joint_group'] == (
+        'interbotix_xs_msgs/msg/JointGroupCommand', False)
+    assert topics['/arm1/compute_ik/_service_event'] == (
+        'px100_control_msgs/srv/ComputeIK_Event', False)
+    action = '/arm1/arm_controller/follow_joint_trajectory/_action/'
+    assert topics[action + 'send_goal/_service_event'] == (
+        'control_msgs/action/FollowJointTrajectory_SendGoal_Event', False)
+    assert topics[action + 'cancel_goal/_service_event'] == (
+        'action_msgs/srv/CancelGoal_Event', False)
+    assert topics[action + 'status'] == ('action_msgs/msg/GoalStatusArray', True)
+    assert topics['/arm1/gripper_controller/gripper_cmd/_action/feedback'] == (
+        'control_msgs/action/GripperCommand_FeedbackMessage', False)
     root = TopicSelection('/')
     assert '/joint_states' in {t for t, _, _ in root.contract_topics()}
     assert root.ready_topic == '/recorder/ready'
@@ -174,6 +213,27 @@ def test_no_urdf_turns_tf_off_with_a_warning(tmp_path):
         assert log and log[0][0] == 'warning' and 'no_such_robot' in log[0][1]
         tf.take('/px100/joint_states', joint_state(T0_NS, ARM, [0.0] * 4), T0_NS, 0.0)
         assert tf.enabled is False and not bag.has_topic('/tf')
+
+
+def test_a_live_tf_publisher_stops_the_computed_tf_for_good(tmp_path):
+    """Asked before each computed /tf: once the graph has a /tf publisher, none is computed."""
+    live = []
+    bag_dir = str(tmp_path / 'bag')
+    with BagWriter(bag_dir) as bag:
+        log = []
+        tf = TfRecording(bag, 'px100', 'px100', 1, _positions, None, None,
+                         lambda level, text: log.append(text), '/px100/',
+                         live=lambda: bool(live))
+        tf.load_model()
+        data = joint_state(T0_NS, ARM, [0.0] * 4)
+        tf.take('/px100/joint_states', data, T0_NS, now=0.0)
+        live.append(True)          # robot_state_publisher appears
+        tf.take('/px100/joint_states', data, T0_NS + 1000, now=0.001)
+        assert tf.live_seen and tf.enabled is False and tf.backlog == []
+        live.clear()               # gone again: the recorder does not go back (one source)
+        tf.take('/px100/joint_states', data, T0_NS + 2000, now=1.0)
+        assert [text for text in log if 'live publisher' in text]
+    assert [t - T0_NS for t, _ in _tf_messages(bag_dir)] == [0]
 
 
 def test_object_frames_from_markers(tmp_path):

@@ -17,28 +17,33 @@ from std_msgs.msg import String
 pytestmark = pytest.mark.ros
 START_TIMEOUT = 90.0
 SP = '/px100/commands/joint_setpoints'
+UNKNOWN = '/px100/unknown'
 N = 50
 PERIOD_NS = 20_000_000  # 50 Hz for 1 s
 
 
 @pytest.fixture(scope='module')
 def replay_bag(tmp_path_factory):
-    """Return (bag dir, setpoint bytes): 1 s of 50 Hz setpoints, a latched string, /tf."""
-    from px100_control.bag.tf import encode_tf_message, TF_TYPE
+    """
+    Return (bag dir, setpoint bytes): 1 s of 50 Hz setpoints, a latched string, an odd type.
+
+    The odd type is not installed (not /tf: setup.sh builds tf2_msgs now).
+    """
     bag_dir = str(tmp_path_factory.mktemp('replay') / 'bag')
     sent = []
     with BagWriter(bag_dir) as bag:
         bag.add_topic(SP, 'sensor_msgs/msg/JointState', [md.qos_profile()])
         bag.add_topic('/px100/robot_description', 'std_msgs/msg/String',
                       [md.qos_profile(durability='transient_local', depth=1)])
-        bag.add_topic('/tf', TF_TYPE, [md.qos_profile(depth=100)])
+        bag.add_topic(UNKNOWN, 'nosuch_msgs/msg/Thing', [md.qos_profile(depth=100)],
+                      msgdef='int32 x\n')
         bag.write('/px100/robot_description', string('<robot name="r"/>'), T0_NS)
         for i in range(N):
             t = T0_NS + i * PERIOD_NS
             data = joint_state(t, ['waist'], [0.01 * i])
             bag.write(SP, data, t)
             sent.append(data)
-            bag.write('/tf', encode_tf_message([], t), t)
+            bag.write(UNKNOWN, bytes([0, 1, 0, 0, i, 0, 0, 0]), t)
     return bag_dir, sent
 
 
@@ -62,8 +67,8 @@ def test_replay_bytes_timing_and_latched_topic(
     assert span == pytest.approx(0.98, abs=0.15), span
     gaps = [b[0] - a[0] for a, b in zip(got, got[1:])]
     assert sorted(gaps)[len(gaps) // 2] == pytest.approx(0.02, abs=0.008)
-    assert "'/tf' has type 'tf2_msgs/msg/TFMessage', which is not installed" in out
-    assert '[replay] done: 51 messages' in out  # /tf not replayed
+    assert f"'{UNKNOWN}' has type 'nosuch_msgs/msg/Thing', which is not installed" in out
+    assert '[replay] done: 51 messages' in out  # the unknown type is not replayed
     assert listener.count('/px100/robot_description') == 1
     assert 'no subscriber' not in out
 
@@ -110,7 +115,7 @@ def test_loop_repeats_until_stopped(rclpy_context, spin_node, node_process, repl
 
 
 @pytest.mark.parametrize('args, message', [
-    (['{bag}', '--topics', '/tf'], "type 'tf2_msgs/msg/TFMessage', which is not installed"),
+    (['{bag}', '--topics', UNKNOWN], "type 'nosuch_msgs/msg/Thing', which is not installed"),
     (['{bag}', '--topics', '/nope'], "no topic '/nope'"),
     (['{bag}', '--remap', '/nope:=/x'], 'cannot remap /nope'),
     (['{bag}', '--remap', 'bad'], 'not of the form from:=to'),

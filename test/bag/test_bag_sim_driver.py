@@ -14,7 +14,7 @@ import os
 import time
 
 from bag_ros_support import wait_until
-from bag_support import decode
+from bag_support import decode, TYPESTORE
 import numpy as np
 from px100_control.bag import inspect_cli
 from px100_control.models.registry import load_robot
@@ -82,7 +82,9 @@ def _bag_series(bag_dir):
     """Return (joint_states [(t_ns, {name: pos})], setpoint log times, msgs by topic)."""
     js, sp, by_topic = [], [], {}
     with Reader(bag_dir) as reader:
-        for conn, t, raw in reader.messages():
+        # -a also records types rosbags' Jazzy store does not have (interbotix, service events)
+        known = [c for c in reader.connections if c.msgtype in TYPESTORE.fielddefs]
+        for conn, t, raw in reader.messages(connections=known):
             msg = decode(bytes(raw), conn.msgtype)
             by_topic.setdefault(conn.topic, []).append(msg)
             if conn.topic == JS:
