@@ -9,24 +9,20 @@ Command line (the options of ``ros2 bag record``, Jazzy, plus stop conditions)::
            [--compression zstd|lz4|none] [--flush-period S]
            [--ros-args -r __ns:=/px100 -p robot_name:=px100 -p robot_model:=px100]
 
-The node ``recorder`` lives in the robot namespace (``/px100`` by default, see
-:mod:`px100_control.ros.common`); topics without a leading ``/`` resolve in it
-(``joint_states`` is ``/px100/joint_states``). ``-a``: every topic but hidden (``_``) ones and
+The node ``recorder`` lives in the robot namespace (``/px100`` by default); topics without a
+leading ``/`` resolve in it (``joint_states`` is ``/px100/joint_states``). ``-a``: every topic but hidden (``_``) ones and
 every service's calls (``<service>/_service_event``), as ``ros2 bag record -a``, plus every
 action's topics (goal/cancel/result service events, feedback, status; rosbag2 since Kilted).
 No topic, or ``--robot-only``: everything of the robot namespace (service events and actions
-included), ``/diagnostics``, ``/tf``, ``/tf_static``. The rules:
-:class:`~px100_control.bag.recording.TopicSelection`. New topics are picked up as they appear.
-Messages
-are recorded as the exact bytes received (raw subscriptions, no deserialisation) with the QoS
-of their publishers (transient local for ``robot_description`` and the action status).
+included), ``/diagnostics``, ``/tf``, ``/tf_static`` (rules: :class:`~px100_control.bag.
+recording.TopicSelection`); new topics are picked up as they appear. Messages are recorded as
+the exact bytes received (raw subscriptions) with their publishers' QoS.
 A live ``/tf`` publisher (robot_state_publisher) is recorded as it is; while the graph has
 none (older bringups), the recorder writes ``/tf`` itself from ``joint_states`` and
 ``world/markers`` (:mod:`px100_control.bag.tf_recording`), never both. When no
-robot_description is published it writes the model's URDF on
-``/<robot_name>/robot_description``, so Foxglove's 3D panel shows the arm. SIGINT and SIGTERM
-finalise the bag; after SIGKILL the file is readable up to its last chunk (at most
-``--flush-period`` s are lost) and ``bag_reindex`` rebuilds it.
+robot_description is published it writes the model's URDF on ``/<robot_name>/
+robot_description`` (Foxglove's 3D panel shows the arm). SIGINT and SIGTERM finalise the bag;
+after SIGKILL it is readable up to its last chunk (``--flush-period``); ``bag_reindex`` fixes it.
 
 Nothing lost at the start: the recorder subscribes at once to the contract's topics
 (docs/ros_interfaces.md: it knows their names, types and QoS), before any publisher exists, and
