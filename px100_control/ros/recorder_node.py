@@ -10,19 +10,19 @@ Command line (the options of ``ros2 bag record``, Jazzy, plus stop conditions)::
            [--ros-args -r __ns:=/px100 -p robot_name:=px100 -p robot_model:=px100]
 
 The node ``recorder`` lives in the robot namespace (``/px100`` by default); topics without a
-leading ``/`` resolve in it (``joint_states`` is ``/px100/joint_states``). ``-a``: every topic but hidden (``_``) ones and
-every service's calls (``<service>/_service_event``), as ``ros2 bag record -a``, plus every
-action's topics (goal/cancel/result service events, feedback, status; rosbag2 since Kilted).
-No topic, or ``--robot-only``: everything of the robot namespace (service events and actions
-included), ``/diagnostics``, ``/tf``, ``/tf_static`` (rules: :class:`~px100_control.bag.
-recording.TopicSelection`); new topics are picked up as they appear. Messages are recorded as
-the exact bytes received (raw subscriptions) with their publishers' QoS.
-A live ``/tf`` publisher (robot_state_publisher) is recorded as it is; while the graph has
-none (older bringups), the recorder writes ``/tf`` itself from ``joint_states`` and
-``world/markers`` (:mod:`px100_control.bag.tf_recording`), never both. When no
-robot_description is published it writes the model's URDF on ``/<robot_name>/
-robot_description`` (Foxglove's 3D panel shows the arm). SIGINT and SIGTERM finalise the bag;
-after SIGKILL it is readable up to its last chunk (``--flush-period``); ``bag_reindex`` fixes it.
+leading ``/`` resolve in it (``joint_states`` is ``/px100/joint_states``). ``-a``: every topic
+but hidden (``_``) ones and every service's calls (``<service>/_service_event``), as ``ros2 bag
+record -a``, plus every action's topics (goal/cancel/result events, feedback, status: as
+rosbag2 since Kilted). No topic, or ``--robot-only``: everything of the robot namespace
+(service events and actions included), ``/diagnostics``, ``/tf``, ``/tf_static`` (rules:
+:class:`~px100_control.bag.recording.TopicSelection`); new topics are picked up as they
+appear. Messages are recorded as the exact bytes received (raw subscriptions) with their
+publishers' QoS. A live ``/tf`` publisher (robot_state_publisher) is recorded as it is; while
+the graph has none (older bringups), the recorder writes ``/tf`` itself from ``joint_states``
+and ``world/markers`` (:mod:`px100_control.bag.tf_recording`), never both. When no
+robot_description is published it writes the model's URDF there (for Foxglove's 3D panel).
+SIGINT and SIGTERM finalise the bag; after SIGKILL it is readable up to its last chunk
+(``--flush-period``); ``bag_reindex`` fixes it.
 
 Nothing lost at the start: the recorder subscribes at once to the contract's topics
 (docs/ros_interfaces.md: it knows their names, types and QoS), before any publisher exists, and
