@@ -32,8 +32,7 @@ from px100_control.models.registry import load_robot  # noqa: E402
 from px100_control.perception.camera import (back_project, CameraSpec, noisy_depth,  # noqa: E402
                                              transform_points)
 from px100_control.perception.cloud_filter import FilterParams, run_pipeline  # noqa: E402
-from px100_control.sim import mjcf  # noqa: E402
-from px100_control.sim.camera_render import add_camera  # noqa: E402
+from px100_control.sim.camera_render import posed_model  # noqa: E402
 from px100_control.sim.scene import load_scene  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -75,15 +74,7 @@ def _node_window(seconds: float, camera: bool) -> dict:
 
 def _scene(camera: CameraSpec):
     robot = load_robot('px100')
-    spec, _ = mjcf.build_spec(robot, load_scene('pick_place', robot))
-    add_camera(spec, camera)
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    for name, q in zip(robot.joint_names, robot.sleep):
-        joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-        data.qpos[model.jnt_qposadr[joint]] = q
-    mujoco.mj_forward(model, data)
-    return model, data
+    return posed_model(robot, load_scene('pick_place', robot), camera)
 
 
 def main(argv=None) -> int:

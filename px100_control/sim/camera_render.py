@@ -13,6 +13,7 @@ import math
 import mujoco
 import numpy as np
 from px100_control.perception.camera import CameraSpec, checked
+from px100_control.sim import mjcf
 
 
 def mujoco_quaternion(spec: CameraSpec) -> np.ndarray:
@@ -68,3 +69,20 @@ class CameraRenderer:
     def close(self) -> None:
         """Free the OpenGL context."""
         self._renderer.close()
+
+
+def posed_model(robot, scene, camera: CameraSpec, joints=None) -> tuple:
+    """
+    Return (model, data) of ``robot`` and ``scene`` with ``camera``, the arm at ``joints``.
+
+    :param joints: arm joint positions [rad] in the robot's joint order (default: its sleep pose)
+    """
+    spec, _ = mjcf.build_spec(robot, scene)
+    add_camera(spec, camera)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    for name, q in zip(robot.joint_names, robot.sleep if joints is None else joints):
+        joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        data.qpos[model.jnt_qposadr[joint]] = q
+    mujoco.mj_forward(model, data)
+    return model, data

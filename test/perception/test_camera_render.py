@@ -4,14 +4,12 @@ The camera rendered by MuJoCo and the cluster pipeline on what it sees: the pick
 Each object's cluster centre (mapped to the base frame) lies within 5 mm (x, y) of the object's
 true position, and its colour is the object's; the camera's depth matches the geometry.
 """
-import mujoco
 import numpy as np
 from px100_control.models.registry import load_robot
 from px100_control.perception.camera import (back_project, CameraSpec, noisy_depth,
                                              transform_points)
 from px100_control.perception.cloud_filter import FilterParams, run_pipeline
-from px100_control.sim import mjcf
-from px100_control.sim.camera_render import add_camera, CameraRenderer
+from px100_control.sim.camera_render import CameraRenderer, posed_model
 from px100_control.sim.scene import load_scene
 import pytest
 
@@ -21,15 +19,8 @@ def view():
     """Render the default camera over the pick_place scene, the arm at its sleep pose."""
     robot = load_robot('px100')
     scene = load_scene('pick_place', robot)
-    spec, _ = mjcf.build_spec(robot, scene)
     camera = CameraSpec()
-    add_camera(spec, camera)
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    for name, q in zip(robot.joint_names, robot.sleep):
-        joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-        data.qpos[model.jnt_qposadr[joint]] = q
-    mujoco.mj_forward(model, data)
+    model, data = posed_model(robot, scene, camera)
     renderer = CameraRenderer(model, camera)
     try:
         color, depth = renderer.render(data)
