@@ -29,14 +29,13 @@ Nothing lost at the start: the recorder subscribes at once to the contract's top
 to other topics as they appear. It is *ready* once every selected topic that has a publisher is
 subscribed and matched with all its publishers (or after ``ready_timeout``, with a warning
 naming the unmatched ones); it then publishes the bag directory on ``recorder/ready``
-(std_msgs/String, transient local, under ``/<robot_name>/``), where the client waits for it
-(:mod:`px100_control.client.recorder_wait`), and logs ``ready``.
-``with Recorder(dir):`` enters only when its recorder is ready. A recorder also lists itself
-in :mod:`px100_control.ros.recorder_registry` while it records, so a client started just after
-it knows it is coming before DDS discovery has found it.
+(std_msgs/String, transient local), where the client waits for it (:mod:`px100_control.client.
+recorder_wait`), and logs ``ready``; ``with Recorder(dir):`` enters only then. It also lists
+itself in :mod:`px100_control.ros.recorder_registry`, so a client started just after it knows
+it is coming before DDS discovery has found it.
 
-The Python API (``Recorder``, ``record_in_process``) is in :mod:`px100_control.ros.recorder`.
-Times in the bag are the reception times (ns since the epoch).
+Python API: :mod:`px100_control.ros.recorder`. Bag times: reception [ns since the epoch]. The
+closing line counts the topics that got a message, of the 'ready' line's recorded topics.
 """
 import os
 import sys
@@ -313,8 +312,9 @@ class RecorderNode(Node):
             f' ({subscribed} subscribed + {TF_TOPIC} computed here)' if computed else '')
 
     def _summary(self) -> str:
-        return (f'{self.bag.message_count} messages on {self._counted(self.bag.topics)} in '
-                f'{self.output}' + (f' ({self.stop_reason})' if self.stop_reason else ''))
+        return (f'{self.bag.message_count} messages on {len(self.bag.topics)} of the '
+                f'{self._counted(self._subs)} recorded in {self.output}'
+                + (f' ({self.stop_reason})' if self.stop_reason else ''))
 
     @property
     def topics_recorded(self) -> List[str]:
