@@ -48,7 +48,7 @@ import pytest
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 ENV_SH = os.path.join(ROOT, 'scripts', 'env.sh')
 EXECUTABLES = ['sim_driver', 'ik_service', 'trajectory_server', 'bringup', 'record', 'replay',
-               'inspect', 'bag_reindex', 'viewer']
+               'inspect', 'bag_reindex', 'viewer', 'state_publisher', 'camera', 'pc_filter']
 #: words a documented command starts with
 COMMAND_WORDS = {'bash', 'source', 'python', 'ros2', 'cd', 'pip', *EXECUTABLES}
 #: what a long-running command prints once it is up (all of them)
@@ -56,6 +56,8 @@ READY = {'sim_driver': ['sim_driver for'], 'ik_service': ['ik_service ready'],
          'trajectory_server': ['trajectory_server ready'],
          'bringup': ['trajectory_server ready'], 'viewer': [' on http://'],
          'record': ['ready: recording'], 'replay': ['replaying '],
+         'state_publisher': ['robot_state_publisher ready'], 'camera': ['camera ready'],
+         'pc_filter': ['pointcloud_pipeline ready'],
          'scripts/pick_and_place_demo.py': ['viewer on http://']}
 LONG_TIMEOUT = 150.0
 #: slow lines whose run is shared with the test that runs the same code (each over a minute on
