@@ -370,6 +370,11 @@ def test_gripper_closes_on_an_object_stalls_holds_it_and_opens(probe):
 
 def test_gripper_position_outside_the_finger_limits_is_refused(probe):
     """A position outside [finger_lower, finger_upper] ends ABORTED; the fingers stay."""
+    def still():        # the fingers may still be finishing the previous test's opening
+        start = probe.finger()
+        time.sleep(0.2)
+        return abs(probe.finger() - start) < 2e-4
+    assert wait_for(still, 10.0), 'the fingers never came to rest'
     before = probe.finger()
     res = _gripper(probe, 0.2)
     assert res.status == GoalStatus.STATUS_ABORTED, res
