@@ -9,6 +9,8 @@ machine without a GPU; ``osmesa`` works too where installed. Only visual geoms (
 are drawn, not the collision twins (group 3).
 """
 import math
+import os
+import threading
 
 import mujoco
 import numpy as np
@@ -51,24 +53,48 @@ class CameraRenderer:
         self.camera_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera.name)
         if self.camera_id < 0:
             raise ValueError(f"camera '{camera.name}' is not in the model (add_camera first)")
-        self._renderer = mujoco.Renderer(model, camera.height, camera.width)
+        self._lock = threading.Lock()
+        with self._lock:
+            self._renderer = mujoco.Renderer(model, camera.height, camera.width)
+            _release_context()
 
     def render(self, data) -> tuple:
         """Return (colour uint8 H x W x 3, depth float32 H x W [m]) of ``data``'s state."""
-        r = self._renderer
-        r.update_scene(data, camera=self.camera_id)
-        color = r.render().copy()
-        r.enable_depth_rendering()
-        try:
-            r.update_scene(data, camera=self.camera_id)
-            depth = r.render().astype(np.float32)
-        finally:
-            r.disable_depth_rendering()
+        with self._lock:
+            r = self._renderer
+            try:
+                r.update_scene(data, camera=self.camera_id)
+                color = r.render().copy()
+                r.enable_depth_rendering()
+                try:
+                    r.update_scene(data, camera=self.camera_id)
+                    depth = r.render().astype(np.float32)
+                finally:
+                    r.disable_depth_rendering()
+            finally:
+                _release_context()
         return color, depth
 
     def close(self) -> None:
-        """Free the OpenGL context."""
-        self._renderer.close()
+        """Free the OpenGL context (from any thread)."""
+        with self._lock:
+            self._renderer.close()
+
+
+def _release_context() -> None:
+    """
+    Leave no OpenGL context current on this thread.
+
+    MuJoCo's Renderer keeps its context current on the thread that last drew, and an EGL
+    context current on one thread cannot be made current on another (EGL_BAD_ACCESS): a
+    multi-threaded executor renders and closes from different threads.
+    """
+    if os.environ.get('MUJOCO_GL', '').lower() != 'egl':
+        return
+    from OpenGL import EGL      # optional: only the EGL backend needs (and has) it
+    display = EGL.eglGetCurrentDisplay()
+    if display:
+        EGL.eglMakeCurrent(display, EGL.EGL_NO_SURFACE, EGL.EGL_NO_SURFACE, EGL.EGL_NO_CONTEXT)
 
 
 def posed_model(robot, scene, camera: CameraSpec, joints=None) -> tuple:

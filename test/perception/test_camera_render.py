@@ -4,6 +4,8 @@ The camera rendered by MuJoCo and the cluster pipeline on what it sees: the pick
 Each object's cluster centre (mapped to the base frame) lies within 5 mm (x, y) of the object's
 true position, and its colour is the object's; the camera's depth matches the geometry.
 """
+import threading
+
 import numpy as np
 from px100_control.models.registry import load_robot
 from px100_control.perception.camera import (back_project, CameraSpec, noisy_depth,
@@ -58,3 +60,24 @@ def test_each_object_is_a_cluster_at_its_position_and_colour(view):
         position, rgb = min(found, key=lambda f: np.linalg.norm(f[0][:2] - xy))
         assert np.linalg.norm(position[:2] - xy) < 0.005, (body.name, position)
         assert int(np.argmax(rgb)) == int(np.argmax(body.rgba[:3])), (body.name, rgb)
+
+
+def test_renders_and_closes_from_any_thread():
+    """A multi-threaded executor renders and closes from other threads (was EGL_BAD_ACCESS)."""
+    robot = load_robot('px100')
+    camera = CameraSpec(width=64, height=48)
+    model, data = posed_model(robot, load_scene('pick_place', robot), camera)
+    renderer = CameraRenderer(model, camera)
+    errors, depths = [], []
+
+    def run(job):
+        try:
+            job()
+        except Exception as exc:  # noqa: B902 - reported below with its thread
+            errors.append(repr(exc))
+    for job in [lambda: depths.append(renderer.render(data)[1])] * 3 + [renderer.close]:
+        thread = threading.Thread(target=run, args=(job,))
+        thread.start()
+        thread.join()
+    assert not errors and len(depths) == 3, errors
+    assert all(np.array_equal(depths[0], d) for d in depths)
