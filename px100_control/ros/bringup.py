@@ -70,7 +70,11 @@ def stop_camera(proc: Optional[subprocess.Popen], timeout: float = 10.0) -> None
         proc.wait(timeout)
     except subprocess.TimeoutExpired:
         proc.kill()
-        proc.wait(5.0)
+        try:
+            proc.wait(5.0)
+        except subprocess.TimeoutExpired:
+            print(f'bringup: the camera process {proc.pid} did not end after SIGKILL',
+                  file=sys.stderr)
 
 
 def main(args=None) -> int:

@@ -21,6 +21,7 @@ scene's ``camera`` block (the ``scene`` parameter, as sim_driver's); a set that 
 camera (out of range, NaN, a pose that sees nothing of the table) is refused with the field
 named and the node keeps its camera. ``enable: false`` stops rendering.
 """
+import os
 import sys
 import time
 
@@ -213,7 +214,9 @@ class CameraNode(Node):
 
 
 def main(args=None):
-    """Run the node (``ros2 run px100_control camera``)."""
+    """Run the node (``ros2 run px100_control camera``): one thread renders, whatever executor."""
+    if os.environ.get('PX100_EXECUTOR', '').strip().lower() == 'multi':
+        os.environ['PX100_EXECUTOR'] = 'single'    # OpenGL contexts belong to one thread
     return spin_node(lambda options: CameraNode(), args, schema=CAMERA,
                      description='Simulated RGB-D camera of px100_control (RealSense topics).')
 
