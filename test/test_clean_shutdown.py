@@ -51,6 +51,8 @@ EXECUTABLES = {
     'viewer --bag': ('viewer', ['--bag'], ' on http://'),
     'pc_filter': ('pc_filter', [], ['pointcloud_pipeline']),
 }
+#: the executable that runs each of CORE's nodes where their names differ
+EXECUTABLE_OF_NODE = {'robot_state_publisher': 'state_publisher'}
 #: how long the processes of a round, started at once, may take to be up [s]
 READY_TIMEOUT = 150.0
 #: executables that end by themselves (nothing to stop)
@@ -289,11 +291,11 @@ class _MoveWatcher:
 
 
 def _move_round(graph, rng, tmp, index):
-    """Start the three nodes, move the arm, SIGINT each (twice at random); return problems."""
+    """Start the core nodes, move the arm, SIGINT each (twice at random); return problems."""
     ns = f'/mv_{os.getpid()}_{index}'
     procs = {}
     for name in CORE:
-        procs[name] = _start(name, ns, tmp, None, 'events')
+        procs[name] = _start(EXECUTABLE_OF_NODE.get(name, name), ns, tmp, None, 'events')
     missing = _wait_ready(graph, {ns: CORE}, {ns: procs['sim_driver']}, READY_TIMEOUT)
     watcher = _MoveWatcher(graph.context, ns)
     problems = []

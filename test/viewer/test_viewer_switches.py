@@ -50,7 +50,8 @@ def test_in_process_bringup_viewer_keyword_and_env(rclpy_context, monkeypatch):
     bringup.start(context=rclpy_context)
     try:
         names = sorted(n.get_name() for n in bringup.nodes)
-        assert names == ['ik_service', 'sim_driver', 'trajectory_server', 'viewer']
+        assert names == ['ik_service', 'robot_state_publisher', 'sim_driver', 'trajectory_server',
+                         'viewer']
         assert wait_http(f'http://127.0.0.1:{port}', 30.0)
     finally:
         bringup.stop()
