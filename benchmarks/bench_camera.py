@@ -62,7 +62,7 @@ def _frame_ms(renderer, data, name: str) -> tuple:
 
 
 def rounds(n: int) -> dict:
-    """Return the median [ms] of each stage over ``n`` interleaved rounds (part 1)."""
+    """Return the median [ms] of each stage over ``n`` interleaved runs (part 1)."""
     robot = load_robot('px100')
     scene = load_scene('pick_place', robot)
     camera, small = CameraSpec(), CameraSpec(name='small', width=320, height=240)
