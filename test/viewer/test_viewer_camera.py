@@ -98,7 +98,7 @@ def test_no_camera_no_panel_no_error(rclpy_context, spin_node, browser):
         page.wait_for_selector('text=state', timeout=60000)
         assert wait_for(lambda: viewer.camera.ticks >= 4, 30.0), 'the camera timer never ran'
         assert not viewer.camera.view.shown and viewer.camera.view.frustum_pose() is None
-        assert 'Camera' not in page.inner_text('body')
+        assert page.evaluate(READ_IMAGE) is None and 'colour' not in page.inner_text('body')
         assert viewer.guard.faults == 0, viewer.guard.last
     finally:
         page.close()
