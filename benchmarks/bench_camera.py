@@ -1,31 +1,36 @@
 """
-Camera cost side by side, in one run: rendering, the depth noise + back-projection, the filter.
+Camera cost side by side, in one run: rendering, the cloud, the filter, the physics beside it.
 
-The default camera (a D415 at 640 x 480) over the pick_place scene with the arm at sleep,
-MuJoCo's offscreen renderer (``MUJOCO_GL=egl``, software OpenGL on a machine without a GPU),
-timed in interleaved rounds (colour, depth, cloud, filter, colour, ...) so a busy machine slows
-every stage alike; the median of each stage is reported in ms, with the frame rate one core
-could sustain for colour + depth and the share of a core a given rate costs. The filter runs
-Interbotix's defaults on the points of the table in front of the arm. Bounded: ``--rounds`` (20;
-5 with ``--quick``) rounds, each stage well under a second; the whole run fails after
-``--timeout`` s (120). Writes ``benchmarks/results/camera.json``.
+1. In this process, timed in interleaved rounds (colour, depth, cloud, filter, ..., physics
+   step, colour, ...) so a busy machine slows every stage alike; the median round of each:
+   the default camera (a D415 at 640 x 480) over the pick_place scene with the arm at sleep,
+   MuJoCo's offscreen renderer (``MUJOCO_GL=egl``: software OpenGL on a machine without a GPU);
+   colour + depth per frame, the same at 320 x 240 (the peer: how the cost scales), the depth
+   noise + back-projection of the cloud, Interbotix's filter (defaults) per call on the whole
+   cloud as pc_filter gets it and on the workspace in front of the arm only (the peer), and
+   the 1 kHz physics step of the same scene (ArmSimulator: PID + servo + MuJoCo), so a frame
+   reads as a number of physics steps. Ratios are printed against the peers.
+2. Processes (``--no-node`` skips them): the installed ``sim_driver`` at ``real_time_factor``
+   0 (as fast as possible, default scene) with and without the ``camera`` process (5 Hz,
+   640 x 480) beside it, in alternating windows: simulated seconds per wall
+   second read from /clock (bench_sim_driver's probe), the camera's frames received and its
+   CPU share; then at real time (100 Hz joint_states) with the camera: the physics real-time
+   factor from the joint_states stamps. Load average with every figure.
 
-``--node``: the camera node's effect on the physics: the ``sim_driver`` process at real time
-(100 Hz joint_states), first alone, then with the ``camera`` process (5 Hz, 640 x 480): the
-physics real-time factor (simulated s of joint_states stamps per wall s), the received
-joint_states period jitter p99, the camera's frame rate as received and its CPU share.
-Usage (venv + install sourced): ``python benchmarks/bench_camera.py [--quick] [--node]``.
+Bounded (benchmarks/bound.py): BOUND_S s with --quick / without. Writes
+``benchmarks/results/camera.json``. Usage (venv + install sourced):
+``python benchmarks/bench_camera.py [--quick] [--no-node]``.
 """
 import argparse
 import json
 import os
-import signal
 import statistics
 import sys
 import time
 
 os.environ.setdefault('MUJOCO_GL', 'egl')
 
+import bound  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from px100_control.models.registry import load_robot  # noqa: E402
@@ -34,112 +39,255 @@ from px100_control.perception.camera import (back_project, CameraSpec, noisy_dep
 from px100_control.perception.cloud_filter import FilterParams, run_pipeline  # noqa: E402
 from px100_control.sim.camera_render import posed_model  # noqa: E402
 from px100_control.sim.scene import load_scene  # noqa: E402
+from px100_control.sim.simulator import ArmSimulator  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+RESULTS = os.path.join(HERE, 'results', 'camera.json')
+BOUND_S = (300.0, 900.0)
+#: physics steps per timed physics stage of a round (1 ms simulated each)
+STEPS = 200
 
 
-def _node_window(seconds: float, camera: bool) -> dict:
-    """Return the real-time factor and jitter of sim_driver, with or without the camera."""
-    from bench_sim_driver import _cpu_seconds, _Listener, _window
+def _frame_ms(renderer, data, name: str) -> tuple:
+    """Render colour then depth; return (colour, depth, ms colour, ms depth)."""
+    t0 = time.perf_counter()
+    renderer.disable_depth_rendering()
+    renderer.update_scene(data, camera=name)
+    color = renderer.render()
+    t1 = time.perf_counter()
+    renderer.enable_depth_rendering()
+    renderer.update_scene(data, camera=name)
+    depth = renderer.render()
+    return color, depth, 1e3 * (t1 - t0), 1e3 * (time.perf_counter() - t1)
+
+
+def rounds(n: int) -> dict:
+    """Return the median [ms] of each stage over ``n`` interleaved runs (part 1)."""
+    robot = load_robot('px100')
+    scene = load_scene('pick_place', robot)
+    camera, small = CameraSpec(), CameraSpec(name='small', width=320, height=240)
+    model, data = posed_model(robot, scene, camera)
+    model_s, data_s = posed_model(robot, scene, small)
+    renderer = mujoco.Renderer(model, camera.height, camera.width)
+    renderer_s = mujoco.Renderer(model_s, small.height, small.width)
+    sim = ArmSimulator(robot, scene=scene)
+    rng = np.random.default_rng(0)
+    T = camera.optical_pose()
+    times = {k: [] for k in ('colour', 'depth', 'colour_depth_320x240', 'cloud', 'filter',
+                             'filter_workspace', 'physics_step')}
+    clusters = {}
+    for k in range(n + 1):                          # round 0 warms up (context, caches)
+        color, depth, ms_c, ms_d = _frame_ms(renderer, data, camera.name)
+        _, _, ms_cs, ms_ds = _frame_ms(renderer_s, data_s, small.name)
+        t0 = time.perf_counter()
+        points, colors = back_project(camera.intrinsics(), noisy_depth(camera, depth, rng), color)
+        t1 = time.perf_counter()
+        full = run_pipeline(points, colors, FilterParams(), rng)
+        t2 = time.perf_counter()
+        base = transform_points(T, points)
+        near = ((base[:, 0] > 0.08) & (base[:, 0] < 0.26) & (np.abs(base[:, 1]) < 0.1)
+                & (base[:, 2] > -0.02) & (base[:, 2] < 0.06))
+        t3 = time.perf_counter()
+        work = run_pipeline(points[near], colors[near], FilterParams(), rng)
+        t4 = time.perf_counter()
+        for _ in range(STEPS):
+            sim.step()
+        t5 = time.perf_counter()
+        clusters = {'filter': len(full.clusters), 'filter_workspace': len(work.clusters)}
+        if k:
+            for key, ms in (('colour', ms_c), ('depth', ms_d),
+                            ('colour_depth_320x240', ms_cs + ms_ds),
+                            ('cloud', 1e3 * (t1 - t0)), ('filter', 1e3 * (t2 - t1)),
+                            ('filter_workspace', 1e3 * (t4 - t3)),
+                            ('physics_step', 1e3 * (t5 - t4) / STEPS)):
+                times[key].append(ms)
+        bound.stage(f'round {k} of {n}')
+    renderer.close()
+    renderer_s.close()
+    median = {k: round(statistics.median(v), 3) for k, v in times.items()}
+    return {'rounds': n, 'median_ms': median, 'clusters': clusters,
+            'load_average': os.getloadavg()}
+
+
+class _Frames:
+    """Count the camera's frames (its colour camera_info: one small message per frame)."""
+
+    def __init__(self):
+        import threading
+
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from sensor_msgs.msg import CameraInfo
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = rclpy.create_node('bench_camera_frames', context=self.ctx)
+        self.count = 0
+        self.node.create_subscription(CameraInfo, '/px100/camera/color/camera_info',
+                                      self._on_info, 5)
+        self.executor = SingleThreadedExecutor(context=self.ctx)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def _on_info(self, msg):
+        self.count += 1
+
+    def close(self):
+        self.executor.shutdown(timeout_sec=2.0)
+        self.thread.join(timeout=5.0)
+        self.node.destroy_node()
+        self.ctx.try_shutdown()
+
+
+def _unthrottled(seconds: float, camera: bool) -> dict:
+    """Return sim_driver's simulated s per wall s at real_time_factor 0, camera on or off."""
+    from bench_sim_driver import _ClockProbe, _cpu_seconds
     from px100_control.tools.processes import NodeProcess
-    from sensor_msgs.msg import Image
-    listener = _Listener()
-    frames = []
-    listener.node.create_subscription(Image, '/px100/camera/color/image_raw',
-                                      lambda m: frames.append(time.monotonic()), 5)
-    procs = [NodeProcess('sim_driver', ['--ros-args', '-p', 'publish_rate:=100.0'])]
+    probe, frames = _ClockProbe(), _Frames()
+    procs = [NodeProcess('sim_driver', ['--ros-args', '-p', 'real_time_factor:=0.0'])]
     if camera:
         procs.append(NodeProcess('camera'))
     try:
-        if not listener.wait(listener.js, 50, 60.0) or (camera and not listener.wait(
-                frames, 3, 90.0)):
-            return {'error': 'no joint_states or frames', 'log': procs[-1].output()[-2000:]}
-        cpu0 = _cpu_seconds(procs[-1].pid)
-        n0 = len(frames)
+        deadline = time.monotonic() + 90.0
+        first = probe.read(1.0)
+        while (first is None or first[1] < 1.0 or (camera and frames.count < 3)) and \
+                time.monotonic() < deadline:
+            time.sleep(0.5)
+            first = probe.read(1.0)
+        if first is None or (camera and frames.count < 3):
+            return {'error': 'no /clock or no camera frames',
+                    'log': procs[-1].output()[-2000:]}
+        start, n0, cpu0 = probe.read(5.0), frames.count, _cpu_seconds(procs[-1].pid)
+        time.sleep(seconds)
+        end, cpu1 = probe.read(5.0), _cpu_seconds(procs[-1].pid)
+        wall = end[0] - start[0]
+        return {'camera': camera, 'sim_s_per_wall_s': round((end[1] - start[1]) / wall, 2),
+                'camera_fps': round((frames.count - n0) / seconds, 2) if camera else None,
+                'camera_cpu_share': round((cpu1 - cpu0) / seconds, 2) if camera else None,
+                'load_average_1min': round(os.getloadavg()[0], 2)}
+    finally:
+        for proc in reversed(procs):
+            proc.stop()
+        frames.close()
+        probe.close()
+
+
+def _real_time(seconds: float) -> dict:
+    """Return sim_driver's real-time factor at real time with the camera beside it."""
+    from bench_sim_driver import _Listener, _window
+    from px100_control.tools.processes import NodeProcess
+    listener = _Listener()
+    procs = [NodeProcess('sim_driver', ['--ros-args', '-p', 'publish_rate:=100.0']),
+             NodeProcess('camera')]
+    try:
+        if not listener.wait(listener.js, 50, 60.0):
+            return {'error': 'no joint_states', 'log': procs[0].output()[-2000:]}
+        time.sleep(5.0)                             # the camera's first frames (model build)
         samples = _window(listener.js, seconds)
-        cpu1 = _cpu_seconds(procs[-1].pid)
         wall = samples[-1][0] - samples[0][0]
-        dev = np.abs(np.diff([s[0] for s in samples]) - 0.01) * 1e3
-        return {'camera': camera, 'real_time_factor': round((samples[-1][1] - samples[0][1])
-                                                            / wall, 4),
-                'received_jitter_p99_ms': round(float(np.percentile(dev, 99)), 2),
-                'camera_fps': round((len(frames) - n0) / seconds, 2) if camera else None,
-                'last_process_cpu_share': round((cpu1 - cpu0) / seconds, 2),
-                'load_average': os.getloadavg()[0]}
+        return {'real_time_factor': round((samples[-1][1] - samples[0][1]) / wall, 4),
+                'load_average_1min': round(os.getloadavg()[0], 2)}
     finally:
         for proc in reversed(procs):
             proc.stop()
         listener.close()
 
 
-def _scene(camera: CameraSpec):
-    robot = load_robot('px100')
-    return posed_model(robot, load_scene('pick_place', robot), camera)
+def nodes(quick: bool) -> dict:
+    """Return part 2: unthrottled sim_driver with and without the camera, alternated."""
+    seconds, alternations = (5.0, 1) if quick else (15.0, 2)
+    runs = {'off': [], 'on': []}
+    for k in range(alternations):
+        for key in ('off', 'on'):
+            bound.log(f'sim_driver unthrottled, camera {key}, window {k + 1}')
+            runs[key].append(_unthrottled(seconds, key == 'on'))
+    out = dict(runs)
+    good = {key: [r['sim_s_per_wall_s'] for r in rows if 'error' not in r]
+            for key, rows in runs.items()}
+    if good['off'] and good['on']:
+        out['on_vs_off'] = round(statistics.median(good['on'])
+                                 / statistics.median(good['off']), 3)
+    bound.log('sim_driver at real time with the camera')
+    out['real_time_with_camera'] = _real_time(seconds)
+    return out
+
+
+def report(out: dict) -> None:
+    """Print the figures and their ratios against the peers."""
+    m = out['median_ms']
+    pair = m['colour'] + m['depth']
+    print(f"camera 640x480, {out['rounds']} rounds, load {out['load_average'][0]:.2f} on "
+          f'{os.cpu_count()} cores (median ms):')
+    for key, value in m.items():
+        print(f'  {key:22s} {value:8.3f}')
+    print(f'  colour + depth {pair:.1f} ms per frame = {pair / m["physics_step"]:.0f} physics '
+          f'steps (1 ms simulated each); {pair / m["colour_depth_320x240"]:.2f}x the 320x240 '
+          f'frame; at 5 Hz with the cloud {0.5 * (pair + m["cloud"]):.0f} % of a core')
+    print(f'  filter {m["filter"]:.1f} ms per call on the whole cloud '
+          f'({out["clusters"]["filter"]} clusters) = {m["filter"] / m["filter_workspace"]:.1f}x '
+          f'the workspace crop ({out["clusters"]["filter_workspace"]} clusters); '
+          f'{m["filter"] / pair:.2f}x a frame')
+    node = out.get('node')
+    if node:
+        for key in ('off', 'on'):
+            for row in node[key]:
+                print(f'  sim_driver unthrottled, camera {key}: {row}')
+        print(f'  camera on / off (simulated s per wall s): {node.get("on_vs_off")}')
+        print(f'  sim_driver at real time with the camera: {node["real_time_with_camera"]}')
+
+
+def markdown(out: dict) -> str:
+    """Return the figures as a Markdown table (run_all.py's section)."""
+    m = out['median_ms']
+    pair = m['colour'] + m['depth']
+    rows = ['| camera (640 x 480, D415 defaults) | figure |', '| --- | --- |',
+            f'| colour + depth per frame | {pair:.1f} ms ({m["colour"]:.1f} + {m["depth"]:.1f}); '
+            f'{pair / m["colour_depth_320x240"]:.2f}x a 320 x 240 frame; '
+            f'{pair / m["physics_step"]:.0f} physics steps |',
+            f'| cloud (noise + back-projection) | {m["cloud"]:.1f} ms |',
+            f'| filter per call, whole cloud / workspace crop | {m["filter"]:.0f} / '
+            f'{m["filter_workspace"]:.0f} ms ({m["filter"] / m["filter_workspace"]:.1f}x) |']
+    node = out.get('node') or {}
+    for key in ('off', 'on'):
+        for row in node.get(key, []):
+            rows.append(f'| sim_driver unthrottled, camera {key} | '
+                        f'{row.get("sim_s_per_wall_s", row.get("error"))} x real time '
+                        f'(load {row.get("load_average_1min")}) |')
+    if 'on_vs_off' in node:
+        rows.append(f'| camera on / off, unthrottled physics | {node["on_vs_off"]} |')
+    if node.get('real_time_with_camera'):
+        rows.append(f'| sim_driver at real time with the camera | '
+                    f'{node["real_time_with_camera"].get("real_time_factor")} x |')
+    rows.append(f'| load average at the rounds | {out["load_average"][0]:.1f} on '
+                f'{os.cpu_count()} cores |')
+    return '\n'.join(rows)
+
+
+def run(quick: bool = False, node: bool = True, n_rounds: int = 0) -> dict:
+    """Return the figures (run_all.py's entry point) and write camera.json."""
+    out = rounds(n_rounds or (5 if quick else 20))
+    if node:
+        out['node'] = nodes(quick)
+    out['markdown'] = markdown(out)
+    os.makedirs(os.path.dirname(RESULTS), exist_ok=True)
+    with open(RESULTS, 'w') as f:
+        json.dump(out, f, indent=1)
+    return out
 
 
 def main(argv=None) -> int:
-    """Run the rounds and print/write the medians."""
+    """Run the parts, print the figures and ratios, write camera.json."""
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[1])
-    parser.add_argument('--quick', action='store_true', help='5 rounds')
-    parser.add_argument('--rounds', type=int, default=None)
-    parser.add_argument('--timeout', type=float, default=120.0, help='fail after this [s]')
-    parser.add_argument('--node', action='store_true',
-                        help="also the camera node's effect on sim_driver's real-time factor")
+    parser.add_argument('--quick', action='store_true', help='5 rounds, short windows')
+    parser.add_argument('--rounds', type=int, default=0)
+    parser.add_argument('--no-node', action='store_true', help='skip part 2 (the processes)')
+    bound.add_argument(parser, *BOUND_S)
     args = parser.parse_args(argv)
-    rounds = args.rounds or (5 if args.quick else 20)
-    signal.signal(signal.SIGALRM, lambda *_: sys.exit(f'bench_camera: over {args.timeout} s'))
-    signal.alarm(int(args.timeout + (300 if args.node else 0)))   # --node: two windows + starts
-    camera = CameraSpec()
-    model, data = _scene(camera)
-    renderer = mujoco.Renderer(model, camera.height, camera.width)
-    rng = np.random.default_rng(0)
-    T = camera.optical_pose()
-    params = FilterParams(x_filter_min=-1, x_filter_max=1, y_filter_min=-1, y_filter_max=1,
-                          z_filter_min=0.1, z_filter_max=2.0)
-    times = {'colour': [], 'depth': [], 'cloud': [], 'filter': []}
-    clusters = 0
-    for k in range(rounds + 1):                     # round 0 warms up (context, caches)
-        t0 = time.perf_counter()
-        renderer.disable_depth_rendering()
-        renderer.update_scene(data, camera=camera.name)
-        color = renderer.render()
-        t1 = time.perf_counter()
-        renderer.enable_depth_rendering()
-        renderer.update_scene(data, camera=camera.name)
-        depth = renderer.render()
-        t2 = time.perf_counter()
-        points, colors = back_project(camera.intrinsics(), noisy_depth(camera, depth, rng), color)
-        base = transform_points(T, points)
-        near = ((base[:, 0] > 0.08) & (base[:, 0] < 0.26) & (np.abs(base[:, 1]) < 0.1)
-                & (base[:, 2] > -0.02) & (base[:, 2] < 0.06))
-        t3 = time.perf_counter()
-        result = run_pipeline(points[near], colors[near], params, rng)
-        t4 = time.perf_counter()
-        clusters = len(result.clusters)
-        if k:
-            for key, dt in zip(times, (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
-                times[key].append(1e3 * dt)
-    renderer.close()
-    median = {k: statistics.median(v) for k, v in times.items()}
-    pair = median['colour'] + median['depth']
-    out = {'rounds': rounds, 'size': [camera.width, camera.height], 'median_ms': median,
-           'colour_plus_depth_ms': pair, 'max_rate_one_core_hz': 1e3 / pair,
-           'core_share_at_5hz': 5 * (pair + median['cloud']) / 1e3, 'clusters': clusters,
-           'load_average': os.getloadavg()}
-    print(f'camera 640x480, {rounds} rounds, load {out["load_average"][0]:.2f}:')
-    for key, value in median.items():
-        print(f'  {key:7s} {value:7.1f} ms')
-    if args.node:
-        seconds = 5.0 if args.quick else 20.0
-        out['node'] = [_node_window(seconds, camera) for camera in (False, True)]
-        for row in out['node']:
-            print(f'  sim_driver {"with" if row.get("camera") else "without"} the camera: {row}')
-    print(f'  colour + depth {pair:.1f} ms -> at most {1e3 / pair:.1f} Hz on one core; '
-          f'5 Hz with the cloud costs {100 * out["core_share_at_5hz"]:.0f} % of a core; '
-          f'{clusters} clusters')
-    os.makedirs(os.path.join(HERE, 'results'), exist_ok=True)
-    with open(os.path.join(HERE, 'results', 'camera.json'), 'w') as f:
-        json.dump(out, f, indent=1)
+    with bound.bounded('bench_camera', bound.seconds(args, args.quick)):
+        out = run(args.quick, not args.no_node, args.rounds)
+    report(out)
+    print(out['markdown'])
+    print(f'wrote {RESULTS}')
     return 0
 
 

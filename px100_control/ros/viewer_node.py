@@ -1,22 +1,20 @@
 """
 viewer: a live 3D page of the robot and its world in the browser (viser), with teleoperation.
 
-``ros2 run px100_control viewer`` serves http://127.0.0.1:8080 (parameters ``host``, ``port``).
-The node is a thin adapter over :mod:`px100_control.viewer` (state + viser scene, no rclpy):
-
-- it subscribes to ``robot_description``, ``joint_states``, ``world/markers``,
-  ``world/held_object``, ``trajectory/goal`` and ``status``, ``ik/request``, ``solution`` and
-  ``status``, ``/diagnostics`` (docs/ros_interfaces.md) and shows them on the page;
-- controls act only through the interfaces a script uses: ``trajectory/goal`` (sliders,
-  Home/Sleep), ``ik/request`` then a goal to the matching ``ik/solution`` (gizmo),
-  ``commands/joint_setpoints`` (gripper effort), ``world/reset`` and ``torque_enable``.
-
-Parameters: :data:`px100_control.parameters.VIEWER` (``--help`` lists them); a host other than
-loopback forces read-only unless ``allow_remote_control``. Sliders, limits and goals follow the
-arm of the received URDF; ``robot_model`` gives Home/Sleep when its arm is that URDF's. Every
-callback runs through a :class:`~px100_control.viewer.guard.Guard`: in a process shared with
-sim_driver (``bringup --viewer``) a viewer fault is logged and never stops the executor.
-With ``--bag BAG`` it plays a recorded bag in the page instead (no ROS graph needed).
+``ros2 run px100_control viewer`` serves http://127.0.0.1:8080 (parameters ``host``, ``port``),
+a thin adapter over :mod:`px100_control.viewer` (state + viser scene, no rclpy). It shows
+``robot_description``, ``joint_states``, ``world/markers``, ``world/held_object``,
+``trajectory/goal`` and ``status``, ``ik/request``, ``solution`` and ``status``, ``/diagnostics``
+(docs/ros_interfaces.md) and the camera (:mod:`px100_control.ros.viewer_camera`). Controls act
+only through a script's interfaces: ``trajectory/goal`` (sliders, Home/Sleep), ``ik/request``
+then a goal to the matching ``ik/solution`` (gizmo), ``commands/joint_setpoints`` (gripper
+effort), ``world/reset`` and ``torque_enable``.
+Parameters: :data:`px100_control.parameters.VIEWER` (``--help``); a non-loopback host forces
+read-only unless ``allow_remote_control``. Sliders, limits and goals follow the arm of the
+received URDF; ``robot_model`` gives Home/Sleep when its arm is that URDF's. Every callback runs
+through a :class:`~px100_control.viewer.guard.Guard`: in a process shared with sim_driver
+(``bringup --viewer``) a viewer fault is logged and never stops the executor. With ``--bag BAG``
+it plays a recorded bag in the page instead (no ROS graph needed).
 """
 import collections
 import math
@@ -35,6 +33,7 @@ from px100_control.ros.common import (declare_robot_parameters, frame_id,
                                       robot_topic, spin_node, stop_requested)
 from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import declare_schema
+from px100_control.ros.viewer_camera import ViewerCamera
 from px100_control.ros.viewer_messages import goal_message, ik_request_message
 from px100_control.viewer.bag_view import serve_bag
 from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_read_only,
@@ -91,6 +90,7 @@ class ViewerNode(Node):
         if self.scene.port != int(port):
             self.get_logger().warning(f'port {port} is busy: serving on {self.scene.port}')
         self._base_frame = frame_id(self, self.model.base_frame)
+        self.camera = ViewerCamera(self, self.scene, self._base_frame)
         self.create_subscription(String, robot_topic(self, 'robot_description'),
                                  self._on_description, LATCHED_QOS)
         self.create_subscription(JointState, robot_topic(self, 'joint_states'),

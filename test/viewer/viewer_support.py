@@ -16,7 +16,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 #: first port of the viewer tests (they use PORT_BASE .. PORT_BASE + 9 and PORT_BASE + 20 ..
-#: PORT_BASE + 29; test_clean_shutdown takes 8140..8149)
+#: PORT_BASE + 31; test_clean_shutdown takes 8140..8149)
 PORT_BASE = int(os.environ.get('PX100_VIEWER_TEST_PORT', '8130'))
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                      reliability=ReliabilityPolicy.RELIABLE)
