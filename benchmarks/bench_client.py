@@ -9,7 +9,7 @@ Interbotix-compatible client:
   moving_time and never checks arrival; here the call returns when trajectory_server reports
   SUCCEEDED (the arm within its goal tolerance), so the excess is the settling + messaging cost;
 - the non-blocking call's return time;
-- ``set_ee_pose_matrix(execute=False)`` (IK over ``ik/request``): latency and success rate on
+- ``set_ee_pose_matrix(execute=False)`` (IK through ``compute_ik``): latency and success rate on
   FK targets of random in-limit configurations (all reachable; Interbotix solves ~31 %).
 
 Writes ``benchmarks/results/client.json``. Usage: ``python benchmarks/bench_client.py

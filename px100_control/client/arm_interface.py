@@ -30,10 +30,10 @@ Where Interbotix is broken, this does better (documented deviations):
   setters, None for home/sleep) without moving; ``last_error`` holds the reason of the last
   refused or failed call and is cleared by every call that succeeds. ``moving_time=0`` is the
   servos' "no profile": the move runs as fast as the joint velocity limits allow.
-- ``set_ee_cartesian_trajectory`` plans through ``ik/path_request`` and executes the planned
-  waypoints as one trajectory; ``wp_moving_time`` / ``wp_accel_time`` (servo profile per waypoint
-  in Interbotix) are accepted and unused; ``moving_time`` < ``wp_period`` returns False instead
-  of raising NameError.
+- ``set_ee_cartesian_trajectory`` plans through ``compute_cartesian_path`` and executes the
+  planned waypoints as one trajectory; ``wp_moving_time`` / ``wp_accel_time`` (servo profile
+  per waypoint in Interbotix) are accepted and unused; ``moving_time`` < ``wp_period`` returns
+  False instead of raising NameError.
 
 px100_control extensions (no Interbotix equivalent): ``wait_for_last_goal``,
 ``last_goal_status``, ``last_error``, and ``set_ee_waypoints`` (straight end-effector lines

@@ -6,10 +6,11 @@ talks to the px100_control nodes through the public contract (shared/reference/
 ros_interfaces.md), in namespace ``/<robot_name>``:
 
 - state: ``joint_states`` and ``ee_pose`` from ``sim_driver``;
-- moves: goals on ``trajectory/goal`` (``trajectory_server``), result on ``trajectory/status``
-  (SUCCEEDED / ABORTED / CANCELED), cancel through ``trajectory/cancel``;
-- IK: ``ik/request`` -> ``ik/solution`` + ``ik/status`` (``ik_service``), paths through
-  ``ik/path_request`` -> ``ik/path_solution``;
+- moves: goals of the action ``arm_controller/follow_joint_trajectory``
+  (control_msgs/FollowJointTrajectory, ``trajectory_server``), as a ros2_control arm is driven:
+  result SUCCEEDED / ABORTED / CANCELED with the reason, cancel through the action
+  (:mod:`px100_control.client.calls`);
+- IK: the services ``compute_ik`` and, for paths, ``compute_cartesian_path`` (``ik_service``);
 - direct setpoints (gripper effort, single motors) on ``commands/joint_setpoints``;
 - torque through ``sim_driver``'s ``torque_enable.<joint>`` parameters (``srv_torque`` is a
   client of its Interbotix ``torque_enable`` (interbotix_xs_msgs/TorqueEnable) service).
@@ -38,14 +39,13 @@ import threading
 import time
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from action_msgs.msg import GoalStatus, GoalStatusArray
-from action_msgs.srv import CancelGoal
+from action_msgs.msg import GoalStatus
 from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseArray, PoseStamped
+from geometry_msgs.msg import PoseStamped
 from interbotix_xs_msgs.srv import TorqueEnable
 import numpy as np
+from px100_control.client.calls import ARM_ACTION, ArmActionLink, call_service, FJT, GoalCall
 from px100_control.client.inprocess import InProcessBringup, ProcessBringup
 from px100_control.client.recorder_wait import local_bag_dirs, RecorderWait
 import px100_control.client.robot as _robot
@@ -56,9 +56,10 @@ from px100_control.control.gripper import pwm_to_effort as _pwm_to_effort
 from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
-from px100_control.ros.conversions import matrix_to_pose, pose_to_matrix, stamp_id, stamp_key
+from px100_control.ros.conversions import matrix_to_pose, pose_to_matrix, stamp_id
 from px100_control.ros.peers import (DISCOVERY_BOUND_S, duplicates_message, has_unknown,
                                      live_peers)
+from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters
@@ -193,17 +194,8 @@ class IkReply:
     values: Dict[str, str]
 
 
-class _Pending:
-    """One request (IK) or goal (trajectory) waiting for its answer."""
-
-    def __init__(self, key):
-        self.key = key
-        self.event = threading.Event()
-        self.status: Optional[int] = None
-        self.solution = None
-        self.diag = None
-        self.reason = ''
-        self.sent_monotonic = time.monotonic()
+#: a goal of this client (px100_control.client.calls.GoalCall)
+_Pending = GoalCall
 
 
 class InterbotixRobotXSCore:
@@ -273,8 +265,6 @@ class InterbotixRobotXSCore:
         self._js_count = 0
         self._pending_lock = threading.Lock()
         self._goals: Dict[Tuple[int, int], _Pending] = {}
-        self._ik: Dict[Tuple[int, int], _Pending] = {}
-        self._paths: Dict[Tuple[int, int], _Pending] = {}
         self._last_stamp_ns = 0
         self._server_accel: Optional[float] = None
         self.last_path_reason = ''
@@ -357,31 +347,15 @@ class InterbotixRobotXSCore:
             callback_group=cbg)
         self.pub_setpoints = n.create_publisher(
             JointState, self.topic('commands/joint_setpoints'), _RELIABLE)
-        self.pub_goal = n.create_publisher(
-            JointTrajectory, self.topic('trajectory/goal'), _RELIABLE)
-        self.sub_status = n.create_subscription(
-            GoalStatusArray, self.topic('trajectory/status'), self._status_cb, _LATCHED,
-            callback_group=cbg)
-        self.pub_ik = n.create_publisher(PoseStamped, self.topic('ik/request'), _RELIABLE)
-        self.sub_ik_solution = n.create_subscription(
-            JointState, self.topic('ik/solution'), self._ik_solution_cb, _RELIABLE,
-            callback_group=cbg)
-        self.sub_ik_status = n.create_subscription(
-            DiagnosticStatus, self.topic('ik/status'), self._ik_status_cb, _RELIABLE,
-            callback_group=cbg)
-        self.pub_ik_path = n.create_publisher(PoseArray, self.topic('ik/path_request'),
-                                              _RELIABLE)
-        self.sub_ik_path = n.create_subscription(
-            JointTrajectory, self.topic('ik/path_solution'), self._ik_path_cb, _RELIABLE,
-            callback_group=cbg)
-        self.sub_diagnostics = n.create_subscription(
-            DiagnosticArray, '/diagnostics', self._diagnostics_cb, _RELIABLE,
-            callback_group=cbg)
+        self.srv_ik = n.create_client(ComputeIK, self.topic('compute_ik'), callback_group=cbg)
+        self.srv_ik_path = n.create_client(ComputeCartesianPath,
+                                           self.topic('compute_cartesian_path'),
+                                           callback_group=cbg)
+        self.arm_action = ArmActionLink(n, f'{n.get_name()}_actions', self.topic(ARM_ACTION),
+                                        callback_group=cbg)
         self.srv_torque = n.create_client(TorqueEnable, self.topic('torque_enable'),
                                           callback_group=cbg)
         self.srv_reset = n.create_client(Trigger, self.topic('reset'), callback_group=cbg)
-        self.srv_cancel = n.create_client(CancelGoal, self.topic('trajectory/cancel'),
-                                          callback_group=cbg)
         self.sub_recorder = n.create_subscription(
             String, self.topic('recorder/ready'), self._recorder_cb, _LATCHED_MANY,
             callback_group=cbg)
@@ -404,8 +378,8 @@ class InterbotixRobotXSCore:
         :return: False when a recorder was not ready and matched in time (a warning says so)
         """
         timeout = self.connect_timeout if timeout is None else float(timeout)
-        pubs = [self.pub_goal, self.pub_ik, self.pub_setpoints, self.pub_ik_path]
-        ok = RecorderWait(self, pubs).run(recorder, timeout)
+        ok = RecorderWait(self, [self.pub_setpoints], self.call_event_topics()).run(
+            recorder, timeout)
         self._recorders_checked = recorder is not False
         return ok
 
@@ -432,7 +406,7 @@ class InterbotixRobotXSCore:
         while any(p.status not in TERMINAL for p in canceled) and time.monotonic() < end:
             time.sleep(0.01)
         name = self.robot_name or self.robot_model
-        what = ('canceled goal ' + ', '.join(stamp_id(_time_of(p.key)) for p in canceled)
+        what = ('canceled goal ' + ', '.join(p.label for p in canceled)
                 if canceled else 'no goal was running')
         try:
             q = self.joint_positions(self.model.joint_names)
@@ -476,15 +450,11 @@ class InterbotixRobotXSCore:
         if self.joint_states is None:
             missing.append(f"no joint states on '{self.topic(self.topic_joint_states)}' "
                            '(sim_driver)')
-        if self.pub_goal.get_subscription_count() == 0 or \
-                self.sub_status.get_publisher_count() == 0:
-            missing.append(f"no trajectory_server on '{self.topic('trajectory/goal')}' / "
-                           f"'{self.topic('trajectory/status')}'")
-        if self.pub_ik.get_subscription_count() == 0 or \
-                self.sub_ik_solution.get_publisher_count() == 0 or \
-                self.sub_ik_status.get_publisher_count() == 0:
-            missing.append(f"no ik_service on '{self.topic('ik/request')}' / "
-                           f"'{self.topic('ik/solution')}'")
+        if not self.arm_action.ready():
+            missing.append(f"no trajectory_server serving the action '{self.topic(ARM_ACTION)}'")
+        if not (self.srv_ik.service_is_ready() and self.srv_ik_path.service_is_ready()):
+            missing.append(f"no ik_service serving '{self.topic('compute_ik')}' / "
+                           f"'{self.topic('compute_cartesian_path')}'")
         return missing
 
     def _wait_for_peers(self) -> None:
@@ -578,10 +548,10 @@ class InterbotixRobotXSCore:
         """Release waiters (called by robot_shutdown)."""
         self._torn_down = True
         with self._pending_lock:
-            for p in list(self._goals.values()) + list(self._ik.values()) + \
-                    list(self._paths.values()):
+            for p in list(self._goals.values()):
                 p.reason = p.reason or 'robot_shutdown() was called'
                 p.event.set()
+        self.arm_action.close()
 
     # -------------------------------------------------------------- callbacks
     def _joint_state_cb(self, msg: JointState) -> None:
@@ -592,56 +562,6 @@ class InterbotixRobotXSCore:
 
     def _ee_pose_cb(self, msg: PoseStamped) -> None:
         self.ee_pose = msg
-
-    def _status_cb(self, msg: GoalStatusArray) -> None:
-        with self._pending_lock:
-            for s in msg.status_list:
-                p = self._goals.get(stamp_key(s.goal_info.stamp))
-                if p is None:
-                    continue
-                p.status = s.status
-                if s.status in TERMINAL:
-                    p.event.set()
-
-    def _ik_solution_cb(self, msg: JointState) -> None:
-        with self._pending_lock:
-            p = self._ik.get(stamp_key(msg.header.stamp))
-            if p is not None:
-                p.solution = msg
-                if p.diag is not None:
-                    p.event.set()
-
-    def _ik_status_cb(self, msg: DiagnosticStatus) -> None:
-        key = _parse_id(msg.hardware_id)
-        with self._pending_lock:
-            p = self._ik.get(key) if key is not None else None
-            if p is not None:
-                p.diag = msg
-                if p.solution is not None:
-                    p.event.set()
-            path = self._paths.get(key) if key is not None else None
-            if path is not None:
-                path.diag = msg
-
-    def _ik_path_cb(self, msg: JointTrajectory) -> None:
-        with self._pending_lock:
-            p = self._paths.get(stamp_key(msg.header.stamp))
-            if p is not None:
-                p.solution = msg
-                p.event.set()
-
-    def _diagnostics_cb(self, msg: DiagnosticArray) -> None:
-        # trajectory_server: one status per ended goal, hardware_id = the goal id
-        with self._pending_lock:
-            if not self._goals:
-                return
-            for st in msg.status:
-                if st.level == DiagnosticStatus.OK:
-                    continue
-                key = _parse_id(st.hardware_id)
-                p = self._goals.get(key) if key is not None else None
-                if p is not None and not p.reason:
-                    p.reason = st.message
 
     # ---------------------------------------------------------------- helpers
     def get_node(self):
@@ -715,7 +635,7 @@ class InterbotixRobotXSCore:
     def send_trajectory(self, joint_names: Sequence[str], points: Sequence[Sequence[float]],
                         times: Sequence[float], accel_time: Optional[float] = None) -> _Pending:
         """
-        Publish a trajectory goal to trajectory_server and return its pending handle.
+        Send a FollowJointTrajectory goal to trajectory_server; return its pending handle.
 
         :param joint_names: a subset of the arm's joints
         :param points: (k, len(joint_names)) positions [rad]
@@ -734,13 +654,12 @@ class InterbotixRobotXSCore:
             raise InterbotixException(
                 f"joints {', '.join(moded)} are not in a position mode: positions are not "
                 "sent (robot_set_operating_modes(..., 'position') first)")
-        if self.pub_goal.get_subscription_count() == 0:
+        if not self.arm_action.ready():
             raise InterbotixException(
-                f"no trajectory_server subscribes to '{self.topic('trajectory/goal')}': is "
+                f"no trajectory_server serves the action '{self.topic(ARM_ACTION)}': is "
                 f"trajectory_server running under namespace '{self.ns or '/'}'?")
-        msg = JointTrajectory()
-        msg.header.stamp = self.new_stamp()
-        msg.header.frame_id = ''
+        goal = FJT.Goal()
+        msg = goal.trajectory
         msg.joint_names = [str(n) for n in joint_names]
         for pos, t in zip(points, times):
             pt = JointTrajectoryPoint()
@@ -749,12 +668,12 @@ class InterbotixRobotXSCore:
             msg.points.append(pt)
         if accel_time is not None and len(msg.points) == 1:
             self._set_server_accel_time(float(accel_time))
-        pending = _Pending(stamp_key(msg.header.stamp))
+        stamp = self.new_stamp()
+        pending = _Pending((stamp.sec, stamp.nanosec))
         with self._pending_lock:
             self._goals[pending.key] = pending
             self._prune(self._goals)
-        self._await_matched(self.pub_goal)
-        self.pub_goal.publish(msg)
+        self.arm_action.send(goal, pending)
         return pending
 
     def _set_server_accel_time(self, accel_time: float, timeout: float = 2.0) -> None:
@@ -768,7 +687,7 @@ class InterbotixRobotXSCore:
         """
         if self._server_accel is not None and abs(self._server_accel - accel_time) < 1e-9:
             return
-        node = self._peer_node('trajectory/goal', 'trajectory_server')
+        node = self.find_node('trajectory_server')
         if node is None:
             return
         problem = self.set_remote_parameters(node, {'accel_time': float(accel_time)}, timeout)
@@ -854,7 +773,6 @@ class InterbotixRobotXSCore:
         :return: (succeeded, reason in words when not)
         """
         deadline = time.monotonic() + timeout
-        gid = stamp_id(_time_of(pending.key))
         while not pending.event.wait(0.02):
             if self._torn_down:
                 break
@@ -863,9 +781,9 @@ class InterbotixRobotXSCore:
                 self.cancel_goal(pending)
                 return False, problem
             if time.monotonic() > deadline:
-                state = STATUS_NAMES.get(pending.status, 'no status at all')
+                state = STATUS_NAMES.get(pending.current_status(), 'no status at all')
                 self.cancel_goal(pending)
-                return False, (f'trajectory_server did not finish goal {gid} within '
+                return False, (f'trajectory_server did not finish goal {_gid(pending)} within '
                                f'{timeout:.1f} s (last status: {state}): is trajectory_server '
                                f"still running under namespace '{self.ns or '/'}'?")
         if pending.status == GoalStatus.STATUS_SUCCEEDED:
@@ -875,34 +793,30 @@ class InterbotixRobotXSCore:
             return True, ''
         if self._torn_down and pending.status not in TERMINAL:
             return False, 'robot_shutdown() was called during the move'
-        end = time.monotonic() + 0.5
-        while not pending.reason and time.monotonic() < end:
-            time.sleep(0.01)  # the reason comes on /diagnostics, just after the status
         state = STATUS_NAMES.get(pending.status, 'UNKNOWN')
-        reason = pending.reason or 'see the trajectory_server log / /diagnostics'
+        reason = pending.reason or 'see the trajectory_server log'
         duplicates = self.duplicates()
         if duplicates:
             reason += f' ({duplicates})'
-        return False, f'goal {gid} ended {state}: {reason}'
+        return False, f'goal {_gid(pending)} ended {state}: {reason}'
 
     def goal_status(self, pending: _Pending) -> str:
         """Return the latest status name of a goal ('NONE' before any)."""
-        return STATUS_NAMES.get(pending.status, 'NONE') if pending.status is not None \
-            else 'NONE'
+        status = pending.current_status()
+        return STATUS_NAMES.get(status, 'NONE') if status is not None else 'NONE'
 
     def cancel_goal(self, pending: Optional[_Pending] = None, timeout: float = 1.0) -> bool:
-        """Cancel one goal (or all with None) through ``trajectory/cancel``; True if accepted."""
-        if not self.srv_cancel.service_is_ready():
-            return False
-        req = CancelGoal.Request()
+        """
+        Cancel one goal (or with None every unfinished one of this client) through the action.
+
+        :return: True if the server accepted a cancel
+        """
         if pending is not None:
-            req.goal_info.stamp = _time_of(pending.key)
-        future = self.srv_cancel.call_async(req)
-        end = time.monotonic() + timeout
-        while not future.done() and time.monotonic() < end:
-            time.sleep(0.005)
-        return future.done() and future.result() is not None and \
-            future.result().return_code == CancelGoal.Response.ERROR_NONE
+            return self.arm_action.cancel(pending, timeout)
+        with self._pending_lock:
+            running = [p for p in self._goals.values() if p.status not in TERMINAL]
+        accepted = [self.arm_action.cancel(p, timeout) for p in running]   # each one
+        return any(accepted)
 
     def _prune(self, table: dict, keep: int = 200) -> None:
         if len(table) > keep:
@@ -918,37 +832,24 @@ class InterbotixRobotXSCore:
         :param orientation_free: position-only IK (all-zero quaternion)
         :raises InterbotixException: ik_service is missing or did not answer within timeout
         """
-        if self.pub_ik.get_subscription_count() == 0:
+        if not self.srv_ik.service_is_ready():
             raise InterbotixException(
-                f"no ik_service subscribes to '{self.topic('ik/request')}': is ik_service "
+                f"no ik_service serves '{self.topic('compute_ik')}': is ik_service "
                 f"running under namespace '{self.ns or '/'}'?")
-        msg = PoseStamped()
-        msg.header.stamp = self.new_stamp()
-        msg.header.frame_id = f'{self.robot_name}/{self.model.base_frame}' \
-            if self.robot_name else self.model.base_frame
-        msg.pose = matrix_to_pose(np.asarray(T_sd, dtype=float))
+        req = ComputeIK.Request()
+        req.target.header.stamp = self.new_stamp()
+        req.target.header.frame_id = self._base_frame_id()
+        req.target.pose = matrix_to_pose(np.asarray(T_sd, dtype=float))
         if orientation_free:
-            o = msg.pose.orientation
+            o = req.target.pose.orientation
             o.x = o.y = o.z = o.w = 0.0
-        pending = _Pending(stamp_key(msg.header.stamp))
-        with self._pending_lock:
-            self._ik[pending.key] = pending
-        try:
-            self._await_matched(self.pub_ik)
-            self.pub_ik.publish(msg)
-            if not pending.event.wait(timeout) or pending.solution is None or \
-                    pending.diag is None:
-                if self._torn_down:
-                    raise InterbotixException('robot_shutdown() was called during an IK request')
-                raise InterbotixException(
-                    f'ik_service did not answer IK request {stamp_id(msg.header.stamp)} within '
-                    f'{timeout:.1f} s: is ik_service still running under namespace '
-                    f"'{self.ns or '/'}'?")
-        finally:
-            with self._pending_lock:
-                self._ik.pop(pending.key, None)
-        sol, diag = pending.solution, pending.diag
-        values = {kv.key: kv.value for kv in diag.values}
+        res = self._call_ik(self.srv_ik, req, timeout,
+                            f'IK request {stamp_id(req.target.header.stamp)}')
+        values = {'method': res.method, 'iterations': str(res.iterations),
+                  'position_error': f'{res.position_error:.6g}',
+                  'orientation_error': f'{res.orientation_error:.6g}',
+                  'num_solutions': str(res.num_solutions)}
+        sol = res.solution
         q = None
         if len(sol.position) > 0:
             by_name = dict(zip(sol.name, sol.position))
@@ -956,46 +857,55 @@ class InterbotixRobotXSCore:
                 q = np.array([by_name[j] for j in self.model.joint_names], dtype=float)
             except KeyError:
                 q = np.array(sol.position, dtype=float)
-        ok = diag.level == DiagnosticStatus.OK and q is not None
-        return IkReply(q=q, success=ok, reason=diag.message, values=values)
+        return IkReply(q=q, success=bool(res.success) and q is not None, reason=res.message,
+                       values=values)
+
+    def _base_frame_id(self) -> str:
+        """Return the frame of IK targets: ``<robot_name>/<base frame>``."""
+        return f'{self.robot_name}/{self.model.base_frame}' if self.robot_name \
+            else self.model.base_frame
+
+    def _call_ik(self, client, request, timeout: float, what: str):
+        """Call an ik_service service; raise InterbotixException when no answer comes."""
+        response = call_service(client, request, timeout)
+        if response is None:
+            if self._torn_down:
+                raise InterbotixException(f'robot_shutdown() was called during an {what}')
+            raise InterbotixException(
+                f'ik_service did not answer {what} within {timeout:.1f} s: is ik_service '
+                f"still running under namespace '{self.ns or '/'}'?")
+        return response
 
     def request_ik_path(self, poses: Sequence[np.ndarray], timeout: float = 10.0) -> \
             JointTrajectory:
         """
         Ask ik_service for a joint path through Cartesian poses (each seeded by the previous).
 
+        ``compute_cartesian_path``; :attr:`last_path_reason` is why it stopped short ('' when
+        every pose was solved).
         :return: the JointTrajectory answer (one point per solved pose)
         :raises InterbotixException: ik_service is missing or did not answer
         """
-        if self.pub_ik_path.get_subscription_count() == 0:
+        if not self.srv_ik_path.service_is_ready():
             raise InterbotixException(
-                f"no ik_service subscribes to '{self.topic('ik/path_request')}': is ik_service "
+                f"no ik_service serves '{self.topic('compute_cartesian_path')}': is ik_service "
                 f"running under namespace '{self.ns or '/'}'?")
-        msg = PoseArray()
-        msg.header.stamp = self.new_stamp()
-        msg.header.frame_id = f'{self.robot_name}/{self.model.base_frame}' \
-            if self.robot_name else self.model.base_frame
-        msg.poses = [matrix_to_pose(np.asarray(T, dtype=float)) for T in poses]
-        pending = _Pending(stamp_key(msg.header.stamp))
-        with self._pending_lock:
-            self._paths[pending.key] = pending
-        try:
-            self._await_matched(self.pub_ik_path)
-            self.pub_ik_path.publish(msg)
-            if not pending.event.wait(timeout) or pending.solution is None:
-                raise InterbotixException(
-                    f'ik_service did not answer path request {stamp_id(msg.header.stamp)} '
-                    f'within {timeout:.1f} s: is ik_service still running under namespace '
-                    f"'{self.ns or '/'}'?")
-            if len(pending.solution.points) < len(poses):
-                end = time.monotonic() + 0.3
-                while pending.diag is None and time.monotonic() < end:
-                    time.sleep(0.005)  # the reason comes on ik/status
-        finally:
-            with self._pending_lock:
-                self._paths.pop(pending.key, None)
-        self.last_path_reason = pending.diag.message if pending.diag is not None else ''
-        return pending.solution
+        req = ComputeCartesianPath.Request()
+        req.waypoints.header.stamp = self.new_stamp()
+        req.waypoints.header.frame_id = self._base_frame_id()
+        req.waypoints.poses = [matrix_to_pose(np.asarray(T, dtype=float)) for T in poses]
+        res = self._call_ik(self.srv_ik_path, req, timeout,
+                            f'path request {stamp_id(req.waypoints.header.stamp)}')
+        self.last_path_reason = '' if res.success else res.message
+        return res.trajectory
+
+    def call_event_topics(self) -> List[str]:
+        """Return the service event topics where the servers publish this client's calls."""
+        action = self.topic(ARM_ACTION) + '/_action/'
+        return [self.topic('compute_ik/_service_event'),
+                self.topic('compute_cartesian_path/_service_event')] + [
+            action + f'{name}/_service_event' for name in ('send_goal', 'cancel_goal',
+                                                           'get_result')]
 
     def _await_matched(self, pub, timeout: float = 0.5) -> None:
         """
@@ -1496,13 +1406,9 @@ def _time_of(key: Tuple[int, int]) -> Time:
     return Time(sec=int(key[0]), nanosec=int(key[1]))
 
 
-def _parse_id(text: str) -> Optional[Tuple[int, int]]:
-    """Return the (sec, nanosec) key of an id text 'sec.nanosec' (None if it is not one)."""
-    try:
-        sec, nsec = text.strip().split('.')
-        return int(sec), int(nsec)
-    except ValueError:
-        return None
+def _gid(pending: _Pending) -> str:
+    """Return a goal's name in messages: its action goal id (the server logs the same)."""
+    return pending.label or 'not yet accepted'
 
 
 def _duration(t: float) -> DurationMsg:

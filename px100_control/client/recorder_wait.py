@@ -17,11 +17,15 @@ Which recorders (the ``recorder`` argument of
 
 Waiting for a recorder means: it announced that it is ready (``recorder/ready``, std_msgs/String
 with the bag directory, transient local, in the recorder's namespace), then each of this
-client's command publishers (goals, IK requests, setpoints, path requests) is matched with the
-recorder's subscription. For a recorder of this process both directions are checked (its
-subscription has matched this client's publisher too); for one in another process this
-client's side is checked (at most :data:`MATCH_WAIT` s, half that for a recorder of another
-namespace, which records this robot only when it records every topic). A recorder that is not
+client's command publishers (setpoints) is matched with the recorder's subscription, and the
+recorder subscribes to the service event topics on which the servers publish this client's
+calls (action goals, cancels and results, IK requests and replies). For a recorder of this
+process both directions are checked (its subscription has matched this client's publisher,
+and the servers' event publishers, too); for one in another process this client's side is
+checked and the recorder's subscriptions to the event topics are seen in the graph (at most
+:data:`MATCH_WAIT` s, half that for a recorder of another namespace, which records this robot
+only when it records every topic; a recorder announces ready once it matched the publishers
+it knows). A recorder that is not
 ready in time is named in a warning: the start of the run may then be missing from its bag; so
 is a recorder of the robot's namespace that announces itself only later.
 """
@@ -101,12 +105,15 @@ class RecorderWait:
 
     :param core: the InterbotixRobotXSCore (its node, publishers, logger and bag_paths)
     :param publishers: the core's command publishers that must reach the bag
+    :param event_topics: the servers' ``<service>/_service_event`` topics of its calls
     """
 
-    def __init__(self, core, publishers: list):
+    def __init__(self, core, publishers: list, event_topics: List[str] = ()):
         self.core = core
         self.node = core.get_node()
         self.pubs = list(publishers)
+        self.events = list(event_topics)
+        self.topics = [p.topic_name for p in self.pubs] + self.events
 
     def run(self, recorder, timeout: float) -> bool:
         """Wait for the recorders ``recorder`` selects; return False if one was not ready."""
@@ -140,14 +147,14 @@ class RecorderWait:
             local = [r for r in local_recorders() if self._records_us(r)]
             remote = sorted(set(graph_recorders(self.node, local_recorders())) | {
                 e['namespace'] for e in recorder_registry.running(os.getpid())
-                if any(recorder_registry.records(e, p.topic_name) for p in self.pubs)})
+                if any(recorder_registry.records(e, t) for t in self.topics)})
             if local or remote or time.monotonic() >= end:
                 return local, remote
             time.sleep(0.05)
 
     # -- in this process ------------------------------------------------------------------
     def _records_us(self, rec) -> bool:
-        return any(rec.records(p.topic_name) for p in self.pubs)
+        return any(rec.records(t) for t in self.topics)
 
     def _local(self, rec, end: float) -> bool:
         """Wait until an in-process RecorderNode is ready and matched both ways with us."""
@@ -159,6 +166,12 @@ class RecorderWait:
                 if time.monotonic() > end:
                     return self._warn(f'the recorder writing {rec.output} did not match '
                                       f'{pub.topic_name}')
+                time.sleep(0.005)
+        for topic in [t for t in self.events if rec.records(t)]:
+            while not self._local_event_matched(rec, topic):
+                if time.monotonic() > end:
+                    return self._warn(f'the recorder writing {rec.output} did not match '
+                                      f'{topic}')
                 time.sleep(0.005)
         self.node.loginfo(f'Recorder ready and matched: recording to {rec.output}')
         return True
@@ -174,6 +187,12 @@ class RecorderWait:
             sub.get_publisher_count() >= len(theirs) and any(
                 i.node_name == RECORDER_NODE and i.node_namespace == rec.get_namespace()
                 for i in self.node.get_subscriptions_info_by_topic(topic))
+
+    def _local_event_matched(self, rec, topic: str) -> bool:
+        """Return True when the recorder's subscription matched the event's publishers."""
+        sub = rec.topics.subs.get(topic)
+        return sub is not None and \
+            sub.get_publisher_count() >= max(1, len(rec.get_publishers_info_by_topic(topic)))
 
     # -- in another process ---------------------------------------------------------------
     def _remote(self, ns: str, timeout: float) -> bool:
@@ -205,6 +224,11 @@ class RecorderWait:
                     for i in self.node.get_subscriptions_info_by_topic(pub.topic_name)):
                 time.sleep(0.01)
             self.core._await_matched(pub, max(0.0, end - time.monotonic()))
+        for topic in self.events:
+            while time.monotonic() < end and not any(
+                    i.node_name == RECORDER_NODE and i.node_namespace == ns
+                    for i in self.node.get_subscriptions_info_by_topic(topic)):
+                time.sleep(0.01)
         time.sleep(0.05)  # the recorder's side of the match trails ours by a moment
         self.node.loginfo(f"Recorder ready and matched: recording to {', '.join(paths)}")
         return True

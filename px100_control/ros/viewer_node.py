@@ -1,20 +1,24 @@
 """
 viewer: a live 3D page of the robot and its world in the browser (viser), with teleoperation.
 
-``ros2 run px100_control viewer`` serves http://127.0.0.1:8080 (parameters ``host``, ``port``),
-a thin adapter over :mod:`px100_control.viewer` (state + viser scene, no rclpy). It shows
-``robot_description``, ``joint_states``, ``world/markers``, ``world/held_object``,
-``trajectory/goal`` and ``status``, ``ik/request``, ``solution`` and ``status``, ``/diagnostics``
-(docs/ros_interfaces.md) and the camera (:mod:`px100_control.ros.viewer_camera`). Controls act
-only through a script's interfaces: ``trajectory/goal`` (sliders, Home/Sleep), ``ik/request``
-then a goal to the matching ``ik/solution`` (gizmo), ``commands/joint_setpoints`` (gripper
-effort), ``world/reset`` and ``torque_enable``.
-Parameters: :data:`px100_control.parameters.VIEWER` (``--help``); a non-loopback host forces
-read-only unless ``allow_remote_control``. Sliders, limits and goals follow the arm of the
-received URDF; ``robot_model`` gives Home/Sleep when its arm is that URDF's. Every callback runs
-through a :class:`~px100_control.viewer.guard.Guard`: in a process shared with sim_driver
-(``bringup --viewer``) a viewer fault is logged and never stops the executor. With ``--bag BAG``
-it plays a recorded bag in the page instead (no ROS graph needed).
+``ros2 run px100_control viewer`` serves http://127.0.0.1:8080 (parameters ``host``, ``port``).
+The node is a thin adapter over :mod:`px100_control.viewer` (state + viser scene, no rclpy):
+
+- it subscribes to ``robot_description``, ``joint_states``, ``world/markers``,
+  ``world/held_object``, the trajectory action's goal events and status and ``compute_ik``'s
+  events (:mod:`px100_control.ros.viewer_calls`), ``/diagnostics`` (docs/ros_interfaces.md)
+  and the camera (:mod:`px100_control.ros.viewer_camera`) and shows them on the page;
+- controls act only through the interfaces a script uses: goals of the action
+  ``arm_controller/follow_joint_trajectory`` (sliders, Home/Sleep), ``compute_ik`` then a goal
+  to its solution (gizmo), ``commands/joint_setpoints`` (gripper effort), ``world/reset`` and
+  ``torque_enable``.
+
+Parameters: :data:`px100_control.parameters.VIEWER` (``--help`` lists them); a host other than
+loopback forces read-only unless ``allow_remote_control``. Sliders, limits and goals follow the
+arm of the received URDF; ``robot_model`` gives Home/Sleep when its arm is that URDF's. Every
+callback runs through a :class:`~px100_control.viewer.guard.Guard`: in a process shared with
+sim_driver (``bringup --viewer``) a viewer fault is logged and never stops the executor.
+With ``--bag BAG`` it plays a recorded bag in the page instead (no ROS graph needed).
 """
 import collections
 import math
@@ -22,32 +26,26 @@ import sys
 import threading
 import time
 
-from action_msgs.msg import GoalStatusArray
-from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
 from px100_control.parameters import VIEWER
 from px100_control.ros.common import (declare_robot_parameters, frame_id,
                                       ignore_further_interrupts, install_stop_signals,
                                       LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
                                       robot_topic, spin_node, stop_requested)
-from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import declare_schema
+from px100_control.ros.viewer_calls import ViewerCalls
 from px100_control.ros.viewer_camera import ViewerCamera
-from px100_control.ros.viewer_messages import goal_message, ik_request_message
 from px100_control.viewer.bag_view import serve_bag
 from px100_control.viewer.controls import (check_settings, DRAG_PERIOD, forced_read_only,
                                            goal_move, GRIPPER_EFFORT, gripper_joint,
                                            model_matches, named_poses)
 from px100_control.viewer.guard import Guard
 from px100_control.viewer.scene import ViewerScene
-from px100_control.viewer.state import GOAL_STATUS_NAMES, RateLimit, stamp_seconds, \
-    Throttle, ViewerState
+from px100_control.viewer.state import RateLimit, stamp_seconds, Throttle, ViewerState
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 
@@ -79,8 +77,6 @@ class ViewerNode(Node):
         self._goal_throttle, self._ik_throttle = Throttle(DRAG_PERIOD), Throttle(DRAG_PERIOD)
         self._render_limit = RateLimit(rate)
         self._last_joints = -math.inf           # arrival of the last joint_states [s]
-        self._ik_ids = collections.deque(maxlen=20)
-        self._last_id = 0.0
         self.arm, self.poses, self.gripper = None, {}, None     # from robot_description
         self.scene = ViewerScene(host=str(host), port=int(port), read_only=self.read_only,
                                  actions=self._on_action, guard=self.guard,
@@ -99,21 +95,9 @@ class ViewerNode(Node):
                                  self._on_markers, LATCHED_QOS)
         self.create_subscription(String, robot_topic(self, 'world/held_object'),
                                  self._on_held, LATCHED_QOS)
-        self.create_subscription(JointTrajectory, robot_topic(self, 'trajectory/goal'),
-                                 self._on_goal, 10)
-        self.create_subscription(GoalStatusArray, robot_topic(self, 'trajectory/status'),
-                                 self._on_status, LATCHED_QOS)
-        self.create_subscription(PoseStamped, robot_topic(self, 'ik/request'),
-                                 self._on_ik_request, 10)
-        self.create_subscription(JointState, robot_topic(self, 'ik/solution'),
-                                 self._on_ik_solution, 10)
-        self.create_subscription(DiagnosticStatus, robot_topic(self, 'ik/status'),
-                                 self._on_ik_status, 10)
+        self.calls = ViewerCalls(self, self.send_goal)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 10)
         if not self.read_only:
-            self.pub_goal = self.create_publisher(
-                JointTrajectory, robot_topic(self, 'trajectory/goal'), 10)
-            self.pub_ik = self.create_publisher(PoseStamped, robot_topic(self, 'ik/request'), 10)
             self.pub_setpoints = self.create_publisher(
                 JointState, robot_topic(self, 'commands/joint_setpoints'), 10)
             self.cli_torque = self.create_client(SetBool, robot_topic(self, 'sim/torque_enable'))
@@ -179,29 +163,6 @@ class ViewerNode(Node):
         with self._lock:
             self.state.set_held(msg.data)
 
-    def _on_goal(self, msg: JointTrajectory) -> None:
-        with self._lock:
-            self.state.set_goal(stamp_seconds(msg.header.stamp), msg.joint_names,
-                                [list(p.positions) for p in msg.points])
-
-    def _on_status(self, msg: GoalStatusArray) -> None:
-        if not msg.status_list:
-            return
-        latest = max(msg.status_list, key=lambda s: stamp_seconds(s.goal_info.stamp))
-        with self._lock:
-            self.state.set_goal_status(stamp_seconds(latest.goal_info.stamp),
-                                       GOAL_STATUS_NAMES.get(latest.status, str(latest.status)))
-
-    def _on_ik_request(self, msg: PoseStamped) -> None:
-        p, q = msg.pose.position, msg.pose.orientation
-        with self._lock:
-            self.state.set_ik_target((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
-
-    def _on_ik_status(self, msg: DiagnosticStatus) -> None:
-        if msg.level >= DiagnosticStatus.ERROR:
-            with self._lock:
-                self.state.set_error(f'ik: {msg.message}')
-
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         errors = [s for s in msg.status if s.level >= DiagnosticStatus.ERROR]
         if errors:
@@ -265,34 +226,16 @@ class ViewerNode(Node):
         else:
             raise ValueError(f'unknown action {name!r}')
 
-    def _new_id(self) -> Time:
-        t = max(time.time(), self._last_id + 1e-6)
-        self._last_id = t
-        return time_from_ns(int(round(t * 1e9)))
-
-    def send_goal(self, positions: dict) -> Time:
-        """Publish a one-point trajectory goal to positions (joint -> rad/m); return its id."""
+    def send_goal(self, positions: dict) -> bytes:
+        """Send a one-point goal to positions (joint -> rad/m); return its goal id (UUID)."""
         if self.arm is None:
             raise ValueError('no robot_description received yet: no arm to move')
         names, target, t = goal_move(self.arm, positions, self.state.joints, self.moving_time)
-        msg = goal_message(self._new_id(), self._base_frame, names, target, t)
-        self.pub_goal.publish(msg)
-        return msg.header.stamp
+        return self.calls.send_goal(self._base_frame, names, target, t)
 
-    def send_ik_request(self, position, quat_xyzw=None) -> Time:
-        """Publish an ik/request (quat None = orientation free); its solution becomes a goal."""
-        msg = ik_request_message(self._new_id(), self._base_frame, position, quat_xyzw)
-        self._ik_ids.append((msg.header.stamp.sec, msg.header.stamp.nanosec))
-        self.pub_ik.publish(msg)
-        return msg.header.stamp
-
-    def _on_ik_solution(self, msg: JointState) -> None:
-        key = (msg.header.stamp.sec, msg.header.stamp.nanosec)
-        if self.read_only or key not in self._ik_ids:
-            return
-        self._ik_ids.remove(key)
-        if len(msg.position) and all(math.isfinite(v) for v in msg.position):
-            self.send_goal(dict(zip(msg.name, msg.position)))
+    def send_ik_request(self, position, quat_xyzw=None) -> None:
+        """Call compute_ik (quat None = orientation free); its solution becomes a goal."""
+        self.calls.send_ik(self._base_frame, position, quat_xyzw)
 
     def send_gripper(self, effort: float) -> None:
         """Drive the gripper with effort [N*m] (> 0 opens), as the client's release/grasp."""

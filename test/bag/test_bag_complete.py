@@ -1,15 +1,20 @@
 """
-Recordings lose nothing: every goal, IK request and setpoint of a script is in its bag.
+Recordings lose nothing: each goal, cancel, result, IK call and setpoint of a script is in the bag.
 
 A client script (recording_script.py) runs repeatedly against a bringup in its own namespace,
 recorded (a) by ``record -a`` started just before it and (b) by ``with Recorder(dir)`` inside
 it; each way with the client told about the recorder (env PX100_RECORDER=wait, recorder=rec)
-and with the script unchanged (the client finds the recorder itself). Each run's bag must hold
-every stamp the script published. Runs per way: env PX100_RECORD_RUNS, else 20 with
-PX100_STRESS=full, else 3.
+and with the script unchanged (the client finds the recorder itself). The client's goals,
+cancels and result requests are calls of the trajectory action's services and its IK requests
+calls of ``compute_ik`` / ``compute_cartesian_path``: the servers publish each as service
+introspection events (``<service>/_service_event``). Each run's bag must hold, for every call
+the script made, the request (found by its goal id or target stamp) and the response (the
+event of the same sequence number), the result of every goal, and every setpoint stamp. Runs
+per way: env PX100_RECORD_RUNS, else 20 with PX100_STRESS=full, else 3.
 """
 import json
 import os
+from pathlib import Path
 import subprocess
 import sys
 import time
@@ -23,7 +28,16 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 RUNS = int(os.environ.get('PX100_RECORD_RUNS', '0') or 0) or (
     20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 3)
-TOPICS = ('trajectory/goal', 'ik/request', 'commands/joint_setpoints')
+SETPOINTS = 'commands/joint_setpoints'
+ACTION = 'arm_controller/follow_joint_trajectory/_action/'
+#: what the script reports sent -> (service whose events hold it, request -> its key)
+CALLS = {
+    'goals': (ACTION + 'send_goal', lambda r: bytes(r.goal_id.uuid).hex()),
+    'results': (ACTION + 'get_result', lambda r: bytes(r.goal_id.uuid).hex()),
+    'cancels': (ACTION + 'cancel_goal', lambda r: bytes(r.goal_info.goal_id.uuid).hex()),
+    'ik': ('compute_ik', lambda r: _stamp(r.target.header.stamp)),
+    'path': ('compute_cartesian_path', lambda r: _stamp(r.waypoints.header.stamp)),
+}
 
 
 def _env(**extra):
@@ -34,19 +48,43 @@ def _env(**extra):
     return env
 
 
-def _bag_stamps(bag_dir: str, ns: str) -> dict:
-    out = {t: set() for t in TOPICS}
+def _stamp(stamp) -> str:
+    return f'{stamp.sec}.{stamp.nanosec:09d}'
+
+
+def _answered_calls(bag_dir: str, ns: str) -> dict:
+    """
+    Return {what: keys of the calls whose request and response are both in the bag}.
+
+    Read with rosbags from the bag's own type definitions. A request is the server's
+    REQUEST_RECEIVED event; its response the RESPONSE_SENT event of the same sequence number.
+    """
+    from rosbags.highlevel import AnyReader
+    out = {}
+    with AnyReader([Path(bag_dir)]) as reader:
+        for what, (service, key) in CALLS.items():
+            topic = f'/{ns}/{service}/_service_event'
+            conns = [c for c in reader.connections if c.topic == topic]
+            requests, responses = {}, set()
+            for c, _, raw in reader.messages(conns):
+                event = reader.deserialize(raw, c.msgtype)
+                seq = event.info.sequence_number
+                if event.info.event_type == 1 and len(event.request):
+                    requests[seq] = key(event.request[0])
+                elif event.info.event_type == 2 and len(event.response):
+                    responses.add(seq)
+            out[what] = {k for seq, k in requests.items() if seq in responses}
     with open_bag(bag_dir) as bag:
-        present = [f'/{ns}/{t}' for t in TOPICS if f'/{ns}/{t}' in bag.topics]
-        for raw, msg in bag.iter_decoded(present):
-            stamp = msg.header.stamp
-            out[raw.topic[len(ns) + 2:]].add(f'{stamp.sec}.{stamp.nanosec:09d}')
+        topic = f'/{ns}/{SETPOINTS}'
+        out[SETPOINTS] = {_stamp(msg.header.stamp) for _, msg in bag.iter_decoded(
+            [topic] if topic in bag.topics else [])}
     return out
 
 
 def _missing(sent: dict, bag_dir: str, ns: str) -> dict:
-    got = _bag_stamps(bag_dir, ns)
-    return {t: sorted(set(sent[t]) - got[t]) for t in TOPICS if set(sent[t]) - got[t]}
+    sent = dict(sent, results=sent['goals'])   # every goal's result was asked for
+    got = _answered_calls(bag_dir, ns)
+    return {t: sorted(set(sent[t]) - got[t]) for t in sent if set(sent[t]) - got[t]}
 
 
 def _run_script(ns, *args, env=None):
@@ -68,7 +106,7 @@ def _recorder_notes(output: str) -> list:
 @pytest.mark.parametrize('way', ['record_process', 'recorder_context',
                                  'record_process_unchanged', 'recorder_context_unchanged'])
 def test_every_command_of_the_script_is_in_the_bag(node_process, tmp_path, way):
-    """RUNS runs: each bag holds all goals, IK requests and setpoints the script sent."""
+    """RUNS runs: each bag holds every call (request and reply) and setpoint of the script."""
     ns = f'px100_rec_{os.getpid()}_{way.split("_")[1]}{int(way.endswith("unchanged"))}'
     node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
     complete, failures = 0, []
@@ -88,13 +126,13 @@ def test_every_command_of_the_script_is_in_the_bag(node_process, tmp_path, way):
         else:
             sent, notes = _run_script(ns, bag,
                                       *(['unchanged'] if way.endswith('unchanged') else []))
-        assert all(sent[t] for t in TOPICS), sent
+        assert all(sent.values()), sent   # goals, a cancel, IK and path calls, setpoints
         missing = _missing(sent, bag, ns)
         if missing:
             failures.append((i, missing, notes))
         else:
             complete += 1
-    counts = {t: len(sent[t]) for t in TOPICS}
+    counts = {t: len(v) for t, v in sent.items()}
     print(f'{way}: {complete} of {RUNS} bags complete (last run sent {counts}; '
           f'{time.monotonic() - t0:.0f} s)')
     for failure in failures:

@@ -36,16 +36,25 @@ def _settled_error(bot, target, tol=1e-3) -> float:
 
 
 class _GoalListener:
-    """Keep the JointTrajectory goals published on trajectory/goal (a node of its own)."""
+    """
+    Keep the goals the action server took (a node of its own).
 
-    def __init__(self, node, topic):
-        from trajectory_msgs.msg import JointTrajectory
+    The trajectory actions publish each goal request on ``<action>/_action/send_goal/
+    _service_event`` (service introspection, REQUEST_RECEIVED with the goal).
+    """
+
+    def __init__(self, node, action):
+        from control_msgs.action import FollowJointTrajectory
+        from px100_control.ros.action_events import EVENT_QOS
         self.goals, self.lock = [], threading.Lock()
-        node.create_subscription(JointTrajectory, topic, self._cb, 10)
+        self.sub = node.create_subscription(
+            FollowJointTrajectory.Impl.SendGoalService.Event,
+            action + '/_action/send_goal/_service_event', self._cb, EVENT_QOS)
 
     def _cb(self, msg):
-        with self.lock:
-            self.goals.append(msg)
+        if msg.info.event_type == 1 and msg.request:   # REQUEST_RECEIVED, with the goal
+            with self.lock:
+                self.goals.append(msg.request[0].goal.trajectory)
 
     def count(self) -> int:
         with self.lock:
@@ -63,19 +72,18 @@ def test_waypoints_are_followed_on_straight_lines(bot, spin_node, rclpy_context)
     """
     The measured end effector stays near the straight segments and ends on the last pose.
 
-    The goal sent to the trajectory_server (heard on trajectory/goal by a node of the test)
-    has no joint step above max_joint_step, from the joint commands before the move on.
+    The goal sent to the trajectory action (heard on its send_goal service events by a node
+    of the test) has no joint step above max_joint_step, from the joint commands before the
+    move on.
     """
     from rclpy.node import Node
-    subscribers = bot.core.pub_goal.get_subscription_count()
     listener = _GoalListener(spin_node(Node('ee_waypoints_goals', context=rclpy_context)),
-                             bot.core.topic('trajectory/goal'))
-    # the client waits for the subscribers its node already knows: let it know this one
-    assert wait_until(lambda: bot.core.pub_goal.get_subscription_count() > subscribers, 10.0), \
-        'the goal listener was not matched to the client'
+                             bot.core.topic('arm_controller/follow_joint_trajectory'))
+    assert wait_until(lambda: listener.sub.get_publisher_count() > 0, 10.0), \
+        "the goal listener was not matched to the action server's events"
     _, ok = bot.arm.set_ee_pose_components(x=0.2, z=0.15, pitch=0.3, moving_time=1.2)
     assert ok
-    assert wait_until(lambda: listener.count() >= 1, 5.0), 'no goal heard on trajectory/goal'
+    assert wait_until(lambda: listener.count() >= 1, 5.0), 'no goal heard on the action events'
     start = bot.arm.get_ee_pose_command()[:3, 3].copy()
     q_start = np.array(bot.arm.get_joint_commands())
     heard = listener.count()

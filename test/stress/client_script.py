@@ -23,13 +23,12 @@ def main(argv=None) -> int:
                         help='connect at once, move only when this file holds --index, then '
                              'write index + 1 to it (scripts started together take turns)')
     parser.add_argument('--wait-subscribers', type=int, default=0,
-                        help='diagnosis only: wait until this many nodes subscribe to the goals')
+                        help='diagnosis only: wait until this many nodes subscribe to the goal '
+                             'events of the trajectory action')
     opts = parser.parse_args(argv)
 
     import numpy as np
     from px100_control.client import InterbotixManipulatorXS, robot_shutdown, robot_startup
-    from px100_control.ros.conversions import stamp_id
-    from builtin_interfaces.msg import Time
 
     t0 = time.monotonic()
     bot = InterbotixManipulatorXS(robot_model='px100', group_name='arm', gripper_name='gripper',
@@ -37,7 +36,8 @@ def main(argv=None) -> int:
     robot_startup()
     connect_s = time.monotonic() - t0
     deadline = time.monotonic() + 20.0
-    while bot.core.pub_goal.get_subscription_count() < opts.wait_subscribers and \
+    goal_events = bot.core.call_event_topics()[2]   # the action's send_goal events
+    while bot.core.get_node().count_subscribers(goal_events) < opts.wait_subscribers and \
             time.monotonic() < deadline:
         time.sleep(0.02)
     waited_s = time.monotonic() - t0 - connect_s
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
                                            blocking=True)
         last = bot.arm._last_goal
         if last is not None and last is not before:
-            goals.append(stamp_id(Time(sec=last.key[0], nanosec=last.key[1])))
+            goals.append(last.uuid.hex())   # the action goal id
         if good:
             ok += 1
         else:

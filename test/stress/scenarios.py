@@ -20,6 +20,8 @@ from .harness import Graph, Probe, script_env, stamp_text
 from .targets import goal_works, ik_works, level_of, SLEEP
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+#: the trajectory action's goal requests (the client's moves), as service events
+GOAL_EVENTS = '/px100/arm_controller/follow_joint_trajectory/_action/send_goal/_service_event'
 
 
 def run_script(name: str, *args: str) -> subprocess.Popen:
@@ -359,14 +361,18 @@ def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int
     """
     Record while ``scripts`` client processes drive the arm one after the other.
 
+    The scripts' goals are trajectory action goals: the bag must hold each one's request
+    event (by goal id).
+
     :return: figures: goals sent by the scripts, goals missing from the bag, setpoints the
         probe saw and those missing from the bag, moves failed
     """
-    topics = ['/px100/trajectory/goal', '/px100/commands/joint_setpoints',
-              '/px100/trajectory/status', '/px100/joint_states']
+    topics = [GOAL_EVENTS, '/px100/commands/joint_setpoints',
+              '/px100/arm_controller/follow_joint_trajectory/_action/status',
+              '/px100/joint_states']
     rec = graph.start('record', '-o', bag_dir, *topics)
     deadline = time.monotonic() + 20.0
-    while probe.pub_goal.get_subscription_count() < 2 and time.monotonic() < deadline:
+    while probe.node.count_subscribers(GOAL_EVENTS) < 1 and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(1.0)
     # from here on (the recorder subscribed), not before: a setpoint of an earlier goal sent
@@ -390,8 +396,8 @@ def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int
     seen = probe.record_setpoints(False)
     rec.stop()
     graph.procs.pop('record', None)
-    bag = read_bag_messages(bag_dir, topics)
-    bag_goals = {stamp_text(m.header.stamp) for _, m in bag['/px100/trajectory/goal']}
+    bag = read_bag_messages(bag_dir, topics[1:])
+    bag_goals = _goal_ids(bag_dir)
     bag_setpoints = {_setpoint_key(m) for _, m in bag['/px100/commands/joint_setpoints']}
     goals = [g for r in results for g in r.get('goals', [])]
     missing_goals = [g for g in goals if g not in bag_goals]
@@ -416,6 +422,23 @@ def scripts_with_recorder(graph: Graph, probe: Probe, bag_dir: str, scripts: int
         'script_connect_s': [r.get('connect_s') for r in results],
         'script_waited_for_subscribers_s': [r.get('waited_for_subscribers_s') for r in results],
     }
+
+
+def _goal_ids(bag_dir: str) -> set:
+    """
+    Return the ids (hex) of the goal requests the trajectory action took, from a closed bag.
+
+    Read with rosbags from the bag's type definitions (mcap_ros2 cannot decode the service
+    event types).
+    """
+    from pathlib import Path
+
+    from rosbags.highlevel import AnyReader
+    with AnyReader([Path(bag_dir)]) as reader:
+        conns = [c for c in reader.connections if c.topic == GOAL_EVENTS]
+        events = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(conns)]
+    return {bytes(e.request[0].goal_id.uuid).hex() for e in events
+            if e.info.event_type == 1 and len(e.request)}   # REQUEST_RECEIVED
 
 
 def _setpoint_key(msg) -> tuple:

@@ -171,7 +171,7 @@ def _blue_arrow_tip(img: np.ndarray):
 
 
 def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
-    """A mouse drag of the gizmo's z arrow sends ik/request; the arm's end effector rises."""
+    """A mouse drag of the gizmo's z arrow calls compute_ik; the arm's end effector rises."""
     watcher, _ = graph
     # from the sleep pose, where the camera of the page sees the gizmo clear of the panel
     key = watcher.send_goal(HOME[0], (0.0, -1.88, 1.5, 0.8), moving_time=2.0)
@@ -190,7 +190,7 @@ def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
         page.wait_for_timeout(50)
     page.mouse.up()
     assert wait_for(lambda: len(watcher.ik_requests) > n_requests, 10.0), \
-        'the gizmo drag sent no ik/request'
+        'the gizmo drag made no compute_ik call'
     frame, target = watcher.ik_requests[-1]
     assert frame == 'px100/base_link'
     assert target[2] > z0 + 0.01, f'IK target z {target[2]:.3f} not above {z0:.3f}'

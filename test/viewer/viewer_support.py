@@ -5,14 +5,15 @@ import time
 import urllib.request
 
 from action_msgs.msg import GoalStatusArray
-from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import PoseStamped
 import numpy as np
+from px100_control.ros.action_events import EVENT_QOS
+from px100_control.ros.viewer_calls import ARM_ACTION, goal_request, SEND_GOAL
+from px100_control_msgs.srv import ComputeIK
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 #: first port of the viewer tests (they use PORT_BASE .. PORT_BASE + 9 and PORT_BASE + 20 ..
@@ -48,7 +49,10 @@ def wait_http(url: str, timeout: float) -> bool:
 
 class Watcher(Node):
     """
-    Follow joint_states, ee_pose, ik/request and trajectory/status; send goals and a world.
+    Follow the robot and the calls; send goals and a world.
+
+    Follows joint_states, ee_pose, compute_ik's requests and the trajectory action's status;
+    sends goals as calls of the trajectory action's goal service.
 
     The world is a real visualization_msgs/MarkerArray on ``world/markers`` (transient local,
     the contract of docs/ros_interfaces.md) from this node, independent of sim_driver.
@@ -62,14 +66,16 @@ class Watcher(Node):
         self.ee = None
         self.ik_requests = []
         self.status = {}
-        self.pub_goal = self.create_publisher(JointTrajectory, f'{ns}/trajectory/goal', 10)
+        self.cli_goal = self.create_client(SEND_GOAL,
+                                           f'{ns}/{ARM_ACTION}/_action/send_goal')
         self.pub_markers = self.create_publisher(MarkerArray, f'{ns}/world/markers', LATCHED)
         self.pub_held = self.create_publisher(String, f'{ns}/world/held_object', LATCHED)
         self.create_subscription(JointState, f'{ns}/joint_states', self._on_js, 10)
         self.create_subscription(PoseStamped, f'{ns}/ee_pose', self._on_ee, 10)
-        self.create_subscription(PoseStamped, f'{ns}/ik/request', self._on_ik, 10)
-        self.create_subscription(GoalStatusArray, f'{ns}/trajectory/status', self._on_status,
-                                 LATCHED)
+        self.create_subscription(ComputeIK.Event, f'{ns}/compute_ik/_service_event',
+                                 self._on_ik, EVENT_QOS)
+        self.create_subscription(GoalStatusArray, f'{ns}/{ARM_ACTION}/_action/status',
+                                 self._on_status, LATCHED)
 
     def _on_js(self, msg):
         with self.lock:
@@ -81,14 +87,17 @@ class Watcher(Node):
             self.ee = (p.x, p.y, p.z)
 
     def _on_ik(self, msg):
-        p = msg.pose.position
+        if msg.info.event_type != 1 or not msg.request:   # REQUEST_RECEIVED
+            return
+        target = msg.request[0].target
+        p = target.pose.position
         with self.lock:
-            self.ik_requests.append((msg.header.frame_id, (p.x, p.y, p.z)))
+            self.ik_requests.append((target.header.frame_id, (p.x, p.y, p.z)))
 
     def _on_status(self, msg):
         with self.lock:
             for st in msg.status_list:
-                key = (st.goal_info.stamp.sec, st.goal_info.stamp.nanosec)
+                key = bytes(st.goal_info.goal_id.uuid)
                 self.status[key] = NAMES.get(st.status, str(st.status))
 
     def position(self, name: str):
@@ -97,17 +106,11 @@ class Watcher(Node):
             return self.joints.get(name)
 
     def send_goal(self, names, positions, moving_time: float = 1.5):
-        """Publish a one-point goal; return its id key (sec, nanosec)."""
-        wait_for(lambda: self.pub_goal.get_subscription_count() > 0, 10.0)
-        msg = JointTrajectory()
-        msg.header.stamp = self.get_clock().now().to_msg()
-        msg.joint_names = list(names)
-        pt = JointTrajectoryPoint(positions=[float(v) for v in positions])
-        pt.time_from_start = Duration(sec=int(moving_time),
-                                      nanosec=int((moving_time % 1) * 1e9))
-        msg.points = [pt]
-        self.pub_goal.publish(msg)
-        return (msg.header.stamp.sec, msg.header.stamp.nanosec)
+        """Send a one-point goal to the trajectory action; return its goal id (bytes)."""
+        assert self.cli_goal.wait_for_service(timeout_sec=20.0), 'no trajectory action'
+        request = goal_request('', names, positions, moving_time)
+        self.cli_goal.call_async(request)
+        return bytes(request.goal_id.uuid)
 
     def wait_goal(self, key, timeout: float = 20.0):
         """Wait for a terminal status of a goal; return its name or None."""
