@@ -162,6 +162,10 @@ class GoalExecutor:
         self.meas_stamp_ns = stamp_ns
         return True
 
+    def has_state(self) -> bool:
+        """Return True once every joint has been measured (a goal can then be planned)."""
+        return not bool(np.isnan(self.meas).any())
+
     def state_age(self, steady_ns: int) -> float:
         """Return seconds since the last measurement was taken (inf before any)."""
         if self.meas_steady_ns is None:

@@ -161,8 +161,7 @@ class TrajectoryActions:
             if req is None:
                 code = FJT.Result.INVALID_JOINTS
             else:
-                with self._lock:
-                    self._server.start_goal(req, tag)
+                self._start_arm_goal(req, tag)
         except InvalidInputError as exc:
             reason = str(exc)
         except Exception as exc:  # noqa: B902 - a bad goal must never stop the node
@@ -172,6 +171,18 @@ class TrajectoryActions:
                             f'{reason}')
             self.arm.end(handle, GoalStatus.STATUS_ABORTED,
                          FJT.Result(error_code=code, error_string=reason))
+
+    def _start_arm_goal(self, req, tag) -> None:
+        """
+        Start a valid goal; raise InvalidInputError when it cannot start.
+
+        A goal sent just after the start waits (``state_timeout`` at most) for the driver's
+        first joint_states, as a ros2_control controller is not active before it reads its
+        state interfaces.
+        """
+        self._server.first_state.wait(self._engine.settings.state_timeout)
+        with self._lock:
+            self._server.start_goal(req, tag)
 
     def _on_arm_cancel(self, handle):
         with self._lock:

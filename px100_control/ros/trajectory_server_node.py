@@ -10,11 +10,10 @@ and ``gripper_controller/gripper_cmd`` are :mod:`px100_control.ros.trajectory_ac
 A goal is a trajectory_msgs/JointTrajectory on ``trajectory/goal``, its ``header.stamp`` its id;
 names and array lengths are checked on the serialized goal before it is deserialized (a goal of
 800 MB of wrongly sized arrays is refused in tens of ms); re-sending the running goal's id is
-ignored (reported on /diagnostics). Statuses go to ``trajectory/status`` and /diagnostics
-(``ros.goal_status``), setpoints at ``rate`` to ``commands/joint_setpoints`` and, identical,
-``trajectory/feedback``. The goal clock is the node clock (``use_sim_time`` honoured); state
-freshness and the watchdog use the steady clock; a ``joint_states`` read late because this
-node stalled counts from its stamp.
+ignored (reported on /diagnostics). Statuses go to ``trajectory/status`` and /diagnostics,
+setpoints at ``rate`` to ``commands/joint_setpoints`` and ``trajectory/feedback``. The goal
+clock is the node clock (``use_sim_time`` honoured); state freshness and the watchdog use the
+steady clock; a ``joint_states`` read late because this node stalled counts from its stamp.
 """
 from dataclasses import fields
 import threading
@@ -79,6 +78,7 @@ class TrajectoryServerNode(Node):
         self._names = list(self.model.joint_names)
         self._index = {name: i for i, name in enumerate(self._names)}
         self._lock = threading.RLock()
+        self.first_state = threading.Event()   # set once every arm joint has been measured
         self._rate = float(self.get_parameter('rate').value)
         self._diag_name = f'{robot_name(self) or "px100"}/{NODE_NAME}'
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -160,6 +160,8 @@ class TrajectoryServerNode(Node):
                 self.get_logger().warning(
                     'joint_states with a non-finite arm position ignored (a driver fault or a '
                     'second publisher?)', throttle_duration_sec=5.0)
+            elif not self.first_state.is_set() and self._engine.has_state():
+                self.first_state.set()
 
     def _on_goal_serialized(self, data: bytes) -> None:
         """Refuse a goal with wrong names or array lengths on its bytes; else deserialize it."""

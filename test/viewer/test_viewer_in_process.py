@@ -96,21 +96,6 @@ def test_viewer_faults_never_stop_the_nodes_in_its_process(rclpy_context, spin_n
         bringup.stop()
 
 
-def _first_goal(watcher, nodes, names, positions, moving_time):
-    """
-    Send the first goal to a bringup just started; return its terminal status.
-
-    A goal that lands in the few ms between trajectory_server's start and its first
-    joint_states is refused with 'no joint_states from the driver yet' (the start of the move is
-    unknown; CI saw it 11 ms after the ready line): only that refusal, read in the output, is
-    sent again, once.
-    """
-    status = watcher.wait_goal(watcher.send_goal(names, positions, moving_time), 60.0)
-    if status == 'ABORTED' and 'no joint_states from the driver yet' in nodes.output():
-        status = watcher.wait_goal(watcher.send_goal(names, positions, moving_time), 60.0)
-    return status
-
-
 def test_viewer_takes_another_robot_from_its_urdf(browser, rclpy_context, spin_node,
                                                   node_process):
     """
@@ -140,9 +125,9 @@ def test_viewer_takes_another_robot_from_its_urdf(browser, rclpy_context, spin_n
         assert wait_for(lambda: watcher.cli_goal.service_is_ready(), 60.0)
         assert wait_for(lambda: watcher.position('waist') is not None, 60.0)
         # 2 s: the wx250s's shoulder swings 1.9 rad from sleep (1 s aborted once under CI load)
-        status = _first_goal(watcher, nodes, wx250s.joint_names,
-                             (0.5, 0.0, 0.0, 0.0, 0.0, 0.0), 2.0)
-        assert status == 'SUCCEEDED', nodes.output()[-3000:]
+        key = watcher.send_goal(wx250s.joint_names, (0.5, 0.0, 0.0, 0.0, 0.0, 0.0),
+                                moving_time=2.0)
+        assert watcher.wait_goal(key, 60.0) == 'SUCCEEDED', nodes.output()[-3000:]
         page = open_page(browser, viewer.url)
         try:
             assert page.locator('[role=slider]').count() == 6
