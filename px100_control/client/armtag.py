@@ -28,6 +28,7 @@ Differences from Interbotix (documented, on purpose):
 """
 import math
 import threading
+import time
 from typing import Optional
 
 from geometry_msgs.msg import TransformStamped
@@ -155,32 +156,37 @@ class InterbotixArmTagInterface:
 
     # ------------------------------------------------------------------ detection
     def _next_frame(self, after: int):
-        """Return (colour, depth or None, intrinsics, frame id) of a frame newer than ``after``."""
+        """
+        Return (colour, depth, intrinsics, count) of a frame newer than ``after``, or None.
+
+        A colour image whose depth image (same stamp) does not follow within 1 s is skipped:
+        without depth the small tag's tilt is ambiguous (module perception.armtag).
+        """
+        deadline = time.monotonic() + FRAME_TIMEOUT
         with self._cond:
-            if not self._cond.wait_for(lambda: self._count > after and self._intr is not None,
-                                       FRAME_TIMEOUT):
-                return None
-            color = self._color
-            key = (color.header.stamp.sec, color.header.stamp.nanosec)
-            self._cond.wait_for(lambda: key in self._depth, 1.0)
-            depth = self._depth.get(key)
-            return color, depth, self._intr, self._count
+            while True:
+                if not self._cond.wait_for(
+                        lambda: self._count > after and self._intr is not None,
+                        max(0.0, deadline - time.monotonic())):
+                    return None
+                color, after = self._color, self._count
+                key = (color.header.stamp.sec, color.header.stamp.nanosec)
+                if self._cond.wait_for(lambda: key in self._depth, 1.0):
+                    return color, self._depth[key], self._intr, after
 
     def find_pose(self, after: int = -1):
         """
         Return (T_camera_tag 4x4, frame count) from the next frame, or (None, reason).
 
-        The pose is the tag's in the image's optical frame (depth-refined when the aligned
-        depth image of that frame arrived).
+        The pose is the tag's in the image's optical frame, refined by the frame's depth.
         """
         frame = self._next_frame(self._count if after < 0 else after)
         if frame is None:
-            return None, (f'no camera frame on /{self.robot_name}/camera/color/image_raw within '
-                          f'{FRAME_TIMEOUT} s (is the camera node running?)')
+            return None, (f'no camera frame (colour and its depth) on /{self.robot_name}/camera '
+                          f'within {FRAME_TIMEOUT} s (is the camera node running?)')
         color, depth, intr, count = frame
         self.image_frame_id = color.header.frame_id
-        found = armtag.detect(image_array(color), intr,
-                              depth=None if depth is None else image_array(depth))
+        found = armtag.detect(image_array(color), intr, depth=image_array(depth))
         return (found.T_camera_tag, count) if found.found else (None, found.reason)
 
     def find_ref_to_arm_base_transform(self, ref_frame: Optional[str] = None,
