@@ -414,6 +414,9 @@ CAMERA = NodeSchema('camera', COMMON + (
     ParamSpec('seed', 'integer', 0, 'seed of the depth noise', low=0, high=2**31 - 1,
               read_only=True),
     ParamSpec('armtag', 'bool', True, 'render the ArmTag (tag36h11 id 5) on the gripper'),
+    ParamSpec('publish_pose', 'bool', True, "publish camera_link's pose in the base frame on "
+              '/tf_static (false: only camera_link -> optical frame, as a RealSense driver; '
+              "the client's InterbotixArmTagInterface then locates the arm)", read_only=True),
 ))
 RECORDER = NodeSchema('recorder', COMMON)
 REPLAYER = NodeSchema('replayer', COMMON)

@@ -22,6 +22,13 @@ By default the nodes (sim_driver, ik_service, trajectory_server) run inside this
 recorded to an MCAP bag and plotted (joints, end-effector path, object paths next to the arm's);
 the paths are printed at the end. ``--jitter M --seed N`` moves the objects' initial positions
 by up to M [m] (uniform in x and y, seeded) through a copy of the scene file.
+
+``--perception`` finds the objects with the camera instead of ``bot.world``, as Interbotix's
+perception demos do (:mod:`px100_control.client.camera_objects`): the camera, state_publisher
+and pc_filter start as processes (the camera without its pose on /tf, moved by up to
+``--camera-jitter`` [m] from the scene's, seeded by ``--seed``), the ArmTag places the camera
+relative to the arm at sleep, and the filter's clusters, named by the objects' colours in the
+scene file, give where to pick. The verdicts are judged on the simulator's truth as before.
 """
 import argparse
 import math
@@ -356,9 +363,10 @@ class Demo:
                 return
             last = width
 
-    def move_object(self, name: str, target) -> bool:
-        """Pick ``name`` where the world says it is and place it at ``target`` [m]."""
-        position = self.bot.world.get_object_pose(name)[:3, 3]
+    def move_object(self, name: str, target, position=None) -> bool:
+        """Pick ``name`` at ``position`` [m] (None: where the world says); place it at target."""
+        if position is None:
+            position = self.bot.world.get_object_pose(name)[:3, 3]
         grasp = position + np.array([0.0, 0.0, GRASP_ABOVE_CENTRE])
         if self.grasp_offset:
             radial = grasp[:2] / max(1e-9, float(np.hypot(*grasp[:2])))
@@ -442,6 +450,56 @@ def pick_order(world, names) -> list:
     return sorted(names, key=lambda n: -clearance(n, bodies))
 
 
+def perceive(bot, args, scene: str):
+    """
+    Return (eyes, {name: centre [m]}) of the scene's objects the camera sees (--perception).
+
+    The arm is at sleep (its start): out of the camera's view of the objects, its tag in view.
+    """
+    from px100_control.client.camera_objects import CameraObjects, jittered_camera
+    from px100_control.models.registry import load_robot
+    from px100_control.sim.scene import load_scene
+    world = load_scene(scene, robot=load_robot('px100'))
+    pose = jittered_camera(world.camera, args.camera_jitter, args.seed) \
+        if args.camera_jitter else None
+    if pose:
+        print(f'camera at {np.round(pose[0], 3).tolist()} m looking at '
+              f'{np.round(pose[1], 3).tolist()} m (jittered by up to '
+              f'{1000 * args.camera_jitter:g} mm, seed {args.seed})')
+    eyes = CameraObjects(bot, start_nodes=not args.connect, camera_pose=pose, scene=scene)
+    calibrated = eyes.calibrate()
+    a = eyes.armtag
+    print(f'ArmTag: {a.parent_frame} -> {a.child_frame} at '
+          f'{np.round(1000 * np.array([a.x, a.y, a.z]), 1).tolist()} mm' if calibrated else
+          'ArmTag: not calibrated (see the log); the camera frames on tf as they are')
+    found = eyes.locate({b.name: b.rgba for b in world.objects})
+    for name in sorted(found):
+        print(f'seen {name} at {np.round(1000 * found[name], 1).tolist()} mm')
+    return eyes, found, world.objects
+
+
+def look_again(bot, eyes, name, seen, scene_objects, demo, target) -> None:
+    """
+    After a failed move (--perception): look from sleep; still where it was seen, try again.
+
+    The camera's answer, not the world's, decides (the world mode's retry asks bot.world).
+    """
+    bot.arm.go_to_sleep_pose(moving_time=1.5)
+    body = {b.name: b for b in scene_objects}[name]
+    now = eyes.locate({name: body.rgba}).get(name)
+    if now is not None and np.linalg.norm(now[:2] - seen[name][:2]) < 0.005:
+        print(f'  {name}: still where it was seen, trying once more')
+        demo.move_object(name, target, now)
+
+
+def perceived_order(seen: dict, scene_objects, remaining: list, goal: dict) -> list:
+    """Return ``remaining`` in pick order from the seen positions (moved ones at their goal)."""
+    from px100_control.client.camera_objects import perceived_bodies
+    where = {n: (goal[n] if n not in remaining else p) for n, p in seen.items()}
+    bodies = perceived_bodies(where, scene_objects)
+    return sorted(remaining, key=lambda n: -clearance(n, bodies) if n in bodies else 0.0)
+
+
 def quiet_goal_lines(robot_name: str) -> None:
     """
     Hide trajectory_server's INFO line per goal (accepted / SUCCEEDED) in this process.
@@ -518,6 +576,12 @@ def main(argv=None) -> int:
     parser.add_argument('--real-time-factor', type=float, default=None,
                         help='simulation speed (default 1; env PX100_REAL_TIME_FACTOR); < 1 '
                              'slows the simulation down on a slow machine')
+    parser.add_argument('--perception', action='store_true',
+                        help='find the objects with the camera (ArmTag + pc_filter), not '
+                             'bot.world')
+    parser.add_argument('--camera-jitter', type=float, default=0.0, metavar='M',
+                        help='with --perception: move the camera and its look-at point by up '
+                             'to M [m] (seeded by --seed)')
     parser.add_argument('--verbose', action='store_true',
                         help="also print trajectory_server's INFO line per goal (about 40; "
                              'with --connect or --bringup process they always show)')
@@ -577,7 +641,10 @@ def main(argv=None) -> int:
     trace = Trace(bot, subscribe=stop_bag is None)
     demo = Demo(bot, trace, args.moving_time, grasp_offset=args.grasp_offset)
     placements = []
+    eyes, seen = None, {}
     try:
+        if args.perception:
+            eyes, seen, scene_objects = perceive(bot, args, scene)
         bot.world.wait_for_update(2.0)
         names = bot.world.list_objects()
         if args.objects:
@@ -598,6 +665,15 @@ def main(argv=None) -> int:
         remaining = list(names)
         while remaining:     # the object with the most room for the open fingers first
             bot.world.wait_for_update(0.5)
+            if eyes is not None:
+                name = perceived_order(seen, scene_objects, remaining, goal)[0]
+                remaining.remove(name)
+                if name not in seen:
+                    print(f'{name}: not seen by the camera, not picked')
+                    demo.failures.append(f'{name}: not seen')
+                elif not demo.move_object(name, goal[name], seen[name]):
+                    look_again(bot, eyes, name, seen, scene_objects, demo, goal[name])
+                continue
             name = pick_order(bot.world, remaining)[0]
             remaining.remove(name)
             if not demo.move_object(name, goal[name]):
@@ -616,6 +692,8 @@ def main(argv=None) -> int:
     finally:
         if stop_bag is not None:
             stop_bag()
+        if eyes is not None:
+            eyes.close()
         if not args.viewer or sys.exc_info()[0] is not None:
             robot_shutdown()
     if stop_bag is not None:
@@ -643,6 +721,8 @@ def main(argv=None) -> int:
         import json
         with open(args.json, 'w', encoding='utf-8') as f:
             json.dump({'scene': scene, 'seed': args.seed, 'jitter': args.jitter,
+                       'perception': args.perception, 'camera_jitter': args.camera_jitter,
+                       'seen': {n: [float(v) for v in p] for n, p in seen.items()},
                        'seconds': time.monotonic() - started, 'failed_steps': demo.failures,
                        'phases': trace.phases,
                        'objects': [p.__dict__ for p in placements]}, f, indent=1)

@@ -54,6 +54,15 @@ class TfBuffer:
         with self._lock:
             return sorted(set(self._parent) | {p for p, _ in self._parent.values()})
 
+    def ancestors(self, frame: str) -> list:
+        """Return the parents of ``frame`` up to its tree's root, nearest first."""
+        chain, frame = [], frame.lstrip('/')
+        with self._lock:
+            while frame in self._parent and self._parent[frame][0] not in chain:
+                frame = self._parent[frame][0]
+                chain.append(frame)
+        return chain
+
     def lookup(self, target: str, source: str) -> np.ndarray:
         """
         Return T_target_source (4x4): a point in ``source`` times it is in ``target``.

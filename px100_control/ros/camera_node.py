@@ -14,7 +14,8 @@ poses the model from the last ``joint_states`` and markers and renders it offscr
   MarkerArray, transient local; the model is rebuilt when the set of bodies changes);
 - pub ``camera/color/image_raw``, ``camera/color/camera_info``, ``camera/depth/image_rect_raw``
   (32FC1 metres, aligned to colour), ``camera/depth/camera_info``, ``camera/depth/color/points``
-  and the camera frames on ``/tf_static`` (:mod:`px100_control.ros.camera_msgs`).
+  and the camera frames on ``/tf_static`` (:mod:`px100_control.ros.camera_msgs`; with
+  ``publish_pose`` false only camera_link -> optical frame, the ArmTag locates the camera).
 
 Parameters (:data:`px100_control.parameters.CAMERA`): the camera's defaults come from the
 scene's ``camera`` block (the ``scene`` parameter, as sim_driver's); a set that makes a bad
@@ -147,9 +148,11 @@ class CameraNode(Node):
 
     def _publish_tf(self) -> None:
         f = self._frames
-        self._pub_tf.publish(static_tf(self.camera, f['base_link'], f['camera_link'],
-                                       f['camera_color_optical_frame'],
-                                       self.get_clock().now().to_msg()))
+        msg = static_tf(self.camera, f['base_link'], f['camera_link'],
+                        f['camera_color_optical_frame'], self.get_clock().now().to_msg())
+        if not self.get_parameter('publish_pose').value:     # the ArmTag will place it
+            msg.transforms = [t for t in msg.transforms if t.header.frame_id != f['base_link']]
+        self._pub_tf.publish(msg)
 
     def _on_description(self, msg: String) -> None:
         self._urdf = msg.data

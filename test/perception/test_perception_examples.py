@@ -1,0 +1,157 @@
+"""
+The perception examples (examples/perception/, one per Interbotix perception demo), end to end.
+
+Each runs as a user runs it: ``bringup`` with the example's scene and the camera without its
+pose (``publish_pose:=false``: the ArmTag must place it), ``pc_filter`` with the examples'
+crop box, then the script in its own process. Afterwards every object must rest where the
+script meant to put it (within ``TOLERANCE`` of one of the spots of its kind, one object per
+spot; the tray for pick_place), read from the simulator's ``world/markers``. Scripts differ
+from Interbotix's API only in their import lines: checked on the source. The end-to-end runs
+do not pass reliably yet (NOT_YET: xfail); pick_place is in the default ROS tier, the other
+four are also marked slow.
+"""
+import ast
+import os
+import subprocess
+import sys
+import threading
+
+import numpy as np
+from pc_support import STARTUP_TIMEOUT, wait_for
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+EXAMPLES = os.path.join(ROOT, 'examples', 'perception')
+FILTER = os.path.join(ROOT, 'config', 'perception_demos_filter.yaml')
+#: how far [m] an object may rest from the spot the script set it down on
+TOLERANCE = 0.015
+TRAY = ((0.08, -0.16), 0.04)           # pick_place: centre, half inner width [m]
+YELLOW_LINE = [(0.06, -0.13), (0.11, -0.13)]
+BLUE_LINE = [(0.06, 0.13), (0.11, 0.13)]
+#: script -> (scene, {object name: the spots it may end on})
+CASES = {
+    'pick_place': ('perception_pick_place', None),
+    'color_sorter': ('color_sorter', {'red_block': [(0.06, -0.13)],
+                                      'yellow_block': [(0.12, -0.13)],
+                                      'blue_block': [(0.06, 0.13)],
+                                      'purple_block': [(0.12, 0.13)]}),
+    'block_organizer': ('block_organizer', {'yellow_1': YELLOW_LINE, 'yellow_2': YELLOW_LINE,
+                                            'blue_1': BLUE_LINE, 'blue_2': BLUE_LINE}),
+    'size_organizer': ('size_organizer', {'large_can': [(0.03, -0.13)],
+                                          'medium_can': [(0.07, -0.13)],
+                                          'small_can': [(0.11, -0.13)]}),
+    'chessboard_cleanup': ('chessboard_cleanup', {'white_1': YELLOW_LINE,
+                                                  'white_2': YELLOW_LINE,
+                                                  'black_1': BLUE_LINE, 'black_2': BLUE_LINE}),
+}
+#: trajectory_server's tolerances as the client's in-process bringup sets them (NODE_PARAMETERS:
+#: on a loaded machine the simulation falls behind and the tight defaults abort good moves)
+TOLERANT = ['-p', 'path_tolerance:=0.5', '-p', 'goal_time_tolerance:=2.0']
+
+
+def _imports(tree):
+    return [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
+
+
+@pytest.mark.parametrize('script', sorted(CASES))
+def test_only_the_import_lines_name_this_project(script):
+    """px100_control only in the imports: upstream's arm, armtag, pointcloud, robot peers."""
+    with open(os.path.join(EXAMPLES, f'{script}.py'), encoding='utf-8') as f:
+        source = f.read()
+    tree = ast.parse(source)
+    ours = {n.module for n in _imports(tree) if isinstance(n, ast.ImportFrom)
+            and n.module.startswith('px100_control')}
+    assert ours == {'px100_control.client.arm', 'px100_control.client.armtag',
+                    'px100_control.client.pointcloud', 'px100_control.client.robot'}
+    body = [n for n in tree.body if n not in _imports(tree)]
+    assert 'px100_control' not in ''.join(ast.unparse(n) for n in body[1:])
+    assert 'find_ref_to_arm_base_transform()' in source and 'get_cluster_positions(' in source
+
+
+class Markers:
+    """The latest world/markers of the px100 (a subscription on the test's node)."""
+
+    def __init__(self, node):
+        from px100_control.ros.common import LATCHED_QOS
+        from visualization_msgs.msg import MarkerArray
+        self.lock, self.objects = threading.Lock(), {}
+        node.create_subscription(MarkerArray, '/px100/world/markers', self._on, LATCHED_QOS)
+
+    def _on(self, msg):
+        from px100_control.bag.world import markers_from_decoded
+        with self.lock:
+            self.objects = {m.name: np.array(m.position) for m in markers_from_decoded(msg)
+                            if m.ns == 'objects'}
+
+    def now(self):
+        with self.lock:
+            return dict(self.objects)
+
+
+def _run(script, tmp_path):
+    """Start the nodes, run the script; return (its output, the objects' poses before, after)."""
+    pytest.importorskip('rclpy')
+    import rclpy
+    from px100_control.tools.processes import NodeProcess
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import Image
+    scene = CASES[script][0]
+    procs = [NodeProcess('bringup', ['--ros-args', '-p', f'scene:={scene}', '-p',
+                                     'publish_pose:=false'] + TOLERANT),
+             NodeProcess('pc_filter', ['--ros-args', '--params-file', FILTER])]
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('examples_probe', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        markers, frames = Markers(node), []
+        node.create_subscription(Image, '/px100/camera/color/image_raw',
+                                 lambda m: frames.append(1), 1)
+        # a few frames: the camera's first ones may precede the scene's bodies
+        assert wait_for(lambda: len(frames) >= 10 and markers.now(), STARTUP_TIMEOUT), \
+            'no camera frame or world/markers\n' + procs[0].output()[-3000:]
+        before = markers.now()
+        proc = subprocess.run([sys.executable, os.path.join(EXAMPLES, f'{script}.py')],
+                              capture_output=True, text=True, timeout=600,
+                              env=dict(os.environ, PX100_CONNECT_TIMEOUT='60'))
+        after = markers.now()
+        return proc, before, after
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+        for p in procs:
+            p.stop()
+
+
+#: seen on a 2-core machine at load 15-30: moves abort ('shoulder did not settle', 0.1 rad;
+#: a cartesian descent past a joint limit) and leave an object behind; pick_place passed once
+#: in four runs. Not passing yet.
+NOT_YET = pytest.mark.xfail(reason='moves abort (shoulder did not settle, a descent past a '
+                                   'joint limit): not passing yet', strict=False)
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize('script', [pytest.param(s, marks=[NOT_YET] if s == 'pick_place' else
+                                                 [pytest.mark.slow, NOT_YET])
+                                    for s in sorted(CASES)])
+def test_example_moves_every_object_where_it_meant(script, tmp_path):
+    """The script runs to its end and every object rests on a spot it meant for it."""
+    proc, before, after = _run(script, tmp_path)
+    log = proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert proc.returncode == 0, log
+    assert sorted(after) == sorted(before), log
+    spots = CASES[script][1]
+    if spots is None:           # pick_place: every object in the tray
+        (cx, cy), half = TRAY
+        for name, p in after.items():
+            assert abs(p[0] - cx) < half and abs(p[1] - cy) < half, (name, p, log)
+        return
+    taken = []
+    for name, p in sorted(after.items()):
+        near = [s for s in spots[name] if np.hypot(p[0] - s[0], p[1] - s[1]) < TOLERANCE]
+        assert near and near[0] not in taken, (name, p.tolist(), spots[name], log)
+        taken.append(near[0])
