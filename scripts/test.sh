@@ -7,12 +7,21 @@ bash "$ROOT/scripts/setup.sh"
 bash "$ROOT/scripts/setup_browser.sh"
 # shellcheck disable=SC1091
 source "$ROOT/scripts/env.sh"
-export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % 90) + 10 ))}
+# Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them (0: one process, no xdist). Worker
+# K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
+# module's tests stay on one worker (--dist loadgroup: one group per module, SERIAL_GROUPS).
+WORKERS=${PX100_TEST_WORKERS:-3}
+export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % (90 - WORKERS)) + 10 ))}
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 unset ROS_LOCALHOST_ONLY
 export MPLBACKEND=Agg
 cd "$ROOT"
-echo "[test] ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
+if [ "$WORKERS" -gt 0 ]; then
+  echo "[test] $WORKERS workers, ROS_DOMAIN_ID=$ROS_DOMAIN_ID..$(( ROS_DOMAIN_ID + WORKERS - 1 ))"
+  set -- -n "$WORKERS" --dist loadgroup "$@"
+else
+  echo "[test] ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
+fi
 # Reruns are opt-in: PX100_RERUNS=2 retries a failed test up to twice (listed in the summary as
 # "rerun", their first failures in out/reruns.log); by default a failure is a failure.
 RERUNS=${PX100_RERUNS:-0}

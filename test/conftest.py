@@ -4,6 +4,12 @@ Shared test setup: a private DDS domain for this run, localhost-only discovery, 
 The domain comes from ROS_DOMAIN_ID if the runner set one (scripts/test.sh picks a random one),
 otherwise one derived from the process id, so parallel runs do not see each other.
 
+Parallel workers (pytest-xdist, ``-n N``; scripts/test.sh): worker ``gwK`` runs in domain
+ROS_DOMAIN_ID + K and serves its viewer tests from PX100_VIEWER_TEST_PORT + 40 K, so workers share
+no DDS graph and no port, and the stray-process cleanup (by domain) sees only its own worker's
+programs. Tests are handed out a module at a time (``--dist loadgroup``, each module its own
+group, so a module's shared bringup starts once); SERIAL_GROUPS put several modules on one worker.
+
 The quick tier (``pytest -m quick``, ``bash scripts/test_quick.sh``): the tests of the pure
 layers (QUICK_PATHS) not marked ros, slow, stress or linter get the ``quick`` marker. A quick
 test that starts a ROS graph (an rclpy context, a node executable) fails, so a graph test cannot
@@ -19,11 +25,25 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
+#: this process's pytest-xdist worker number (gw0 -> 0), None outside a parallel run
+WORKER = (int(os.environ['PYTEST_XDIST_WORKER'][2:])
+          if os.environ.get('PYTEST_XDIST_WORKER', '').startswith('gw') else None)
+#: viewer test ports a worker may use (test/viewer/viewer_support.py takes base .. base + 29)
+WORKER_PORT_STRIDE = 40
+if WORKER is not None and 'PX100_WORKER_DOMAIN_BASE' not in os.environ:
+    os.environ['PX100_WORKER_DOMAIN_BASE'] = os.environ['ROS_DOMAIN_ID']
+    os.environ['ROS_DOMAIN_ID'] = str(int(os.environ['ROS_DOMAIN_ID']) + WORKER)
+    os.environ['PX100_VIEWER_TEST_PORT'] = str(
+        int(os.environ.get('PX100_VIEWER_TEST_PORT', '8130')) + WORKER_PORT_STRIDE * WORKER)
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 import pytest  # noqa: E402
 from tiers import NOT_QUICK, QUICK_PATHS  # noqa: E402
+
+#: modules that share a pytest-xdist worker (run one after another, never beside each other):
+#: the stress package shares one graph (a package fixture) and loads the machine on purpose
+SERIAL_GROUPS = {'test/stress/': 'stress'}
 
 
 def _in_quick_paths(path) -> bool:
@@ -51,6 +71,17 @@ def pytest_collection_modifyitems(config, items):
         if _in_quick_paths(item.path) and not any(
                 item.get_closest_marker(m) for m in NOT_QUICK):
             item.add_marker(pytest.mark.quick)
+        if item.get_closest_marker('xdist_group') is None:
+            item.add_marker(pytest.mark.xdist_group(_worker_group(item.path)))
+
+
+def _worker_group(path) -> str:
+    """Return the pytest-xdist group of a test module: its SERIAL_GROUPS entry, or itself."""
+    rel = os.path.relpath(str(path), ROOT).replace(os.sep, '/')
+    for prefix, group in SERIAL_GROUPS.items():
+        if rel.startswith(prefix):
+            return group
+    return rel
 
 
 class QuickTierViolation(RuntimeError):
