@@ -7,8 +7,9 @@ otherwise one derived from the process id, so parallel runs do not see each othe
 Parallel workers (pytest-xdist, ``-n N``; scripts/test.sh): worker ``gwK`` runs in domain
 ROS_DOMAIN_ID + K and serves its viewer tests from PX100_VIEWER_TEST_PORT + 40 K, so workers share
 no DDS graph and no port, and the stray-process cleanup (by domain) sees only its own worker's
-programs. Tests are handed out a module at a time (``--dist loadgroup``, each module its own
-group, so a module's shared bringup starts once); SERIAL_GROUPS put several modules on one worker.
+programs. ``--dist loadgroup``: a module whose tests share a module fixture (a bringup) is one
+group, so the fixture is set up once; the other tests go out one by one to whichever worker is
+free; SERIAL_GROUPS put several modules on one worker.
 
 The quick tier (``pytest -m quick``, ``bash scripts/test_quick.sh``): the tests of the pure
 layers (QUICK_PATHS) not marked ros, slow, stress or linter get the ``quick`` marker. A quick
@@ -71,17 +72,42 @@ def pytest_collection_modifyitems(config, items):
         if _in_quick_paths(item.path) and not any(
                 item.get_closest_marker(m) for m in NOT_QUICK):
             item.add_marker(pytest.mark.quick)
-        if item.get_closest_marker('xdist_group') is None:
-            item.add_marker(pytest.mark.xdist_group(_worker_group(item.path)))
+    shared = {item.path for item in items if _uses_a_shared_fixture(item)}
+    for item in items:
+        group = _worker_group(item.path, item.path in shared)
+        if group and item.get_closest_marker('xdist_group') is None:
+            item.add_marker(pytest.mark.xdist_group(group))
 
 
-def _worker_group(path) -> str:
-    """Return the pytest-xdist group of a test module: its SERIAL_GROUPS entry, or itself."""
+#: module fixtures cheap enough to set up on every worker (a module using only these is spread):
+#: 'file::fixture'
+CHEAP_SHARED_FIXTURES = {'conftest.py::_no_stray_processes', 'test_clean_shutdown.py::graph',
+                         'test_clean_shutdown.py::replay_bag'}
+
+
+def _uses_a_shared_fixture(item) -> bool:
+    """Return whether a test uses a module, class or package fixture (a shared bringup)."""
+    info = getattr(item, '_fixtureinfo', None)
+    for name, defs in (info.name2fixturedefs.items() if info else ()):
+        for d in defs:
+            where = f'{os.path.basename(d.func.__code__.co_filename)}::{name}'
+            if d.scope in ('module', 'class', 'package') and where not in CHEAP_SHARED_FIXTURES:
+                return True
+    return False
+
+
+def _worker_group(path, shared: bool):
+    """
+    Return the pytest-xdist group of a test module, or None to hand its tests out one by one.
+
+    SERIAL_GROUPS first; then a module whose tests share a fixture (a bringup, a demo run) is
+    one group so the fixture is set up once; the others' tests go wherever a worker is free.
+    """
     rel = os.path.relpath(str(path), ROOT).replace(os.sep, '/')
     for prefix, group in SERIAL_GROUPS.items():
         if rel.startswith(prefix):
             return group
-    return rel
+    return rel if shared else None
 
 
 class QuickTierViolation(RuntimeError):
