@@ -9,7 +9,7 @@ bash "$ROOT/scripts/setup_browser.sh"
 source "$ROOT/scripts/env.sh"
 # Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them (0: one process, no xdist). Worker
 # K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
-# module's tests stay on one worker (--dist loadgroup: one group per module, SERIAL_GROUPS).
+# module goes to one worker whole, except SPREAD_MODULES (test/conftest.py: its scheduler).
 WORKERS=${PX100_TEST_WORKERS:-3}
 export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % (90 - WORKERS)) + 10 ))}
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
@@ -18,7 +18,7 @@ export MPLBACKEND=Agg
 cd "$ROOT"
 if [ "$WORKERS" -gt 0 ]; then
   echo "[test] $WORKERS workers, ROS_DOMAIN_ID=$ROS_DOMAIN_ID..$(( ROS_DOMAIN_ID + WORKERS - 1 ))"
-  set -- -n "$WORKERS" --dist loadgroup "$@"
+  set -- -n "$WORKERS" "$@"
 else
   echo "[test] ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
 fi

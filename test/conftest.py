@@ -7,9 +7,9 @@ otherwise one derived from the process id, so parallel runs do not see each othe
 Parallel workers (pytest-xdist, ``-n N``; scripts/test.sh): worker ``gwK`` runs in domain
 ROS_DOMAIN_ID + K and serves its viewer tests from PX100_VIEWER_TEST_PORT + 40 K, so workers share
 no DDS graph and no port, and the stray-process cleanup (by domain) sees only its own worker's
-programs. ``--dist loadgroup``: a module whose tests share a module fixture (a bringup) is one
-group, so the fixture is set up once; the other tests go out one by one to whichever worker is
-free; SERIAL_GROUPS put several modules on one worker.
+programs. The scheduler (pytest_xdist_make_scheduler) hands out a test module at a time, so a
+module's shared fixture (a bringup, a demo run) is set up once; the tests of SPREAD_MODULES
+(each starts its own processes) go out one by one; SERIAL_GROUPS put modules on one worker.
 
 The quick tier (``pytest -m quick``, ``bash scripts/test_quick.sh``): the tests of the pure
 layers (QUICK_PATHS) not marked ros, slow, stress or linter get the ``quick`` marker. A quick
@@ -40,11 +40,31 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 import pytest  # noqa: E402
-from tiers import NOT_QUICK, QUICK_PATHS  # noqa: E402
+from tiers import CHEAP_SHARED_FIXTURES, NOT_QUICK, QUICK_PATHS, SPREAD_MODULES, \
+    worker_scope  # noqa: E402
 
-#: modules that share a pytest-xdist worker (run one after another, never beside each other):
-#: the stress package shares one graph (a package fixture) and loads the machine on purpose
-SERIAL_GROUPS = {'test/stress/': 'stress'}
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """Schedule by worker_scope (xdist's loadgroup marks do not reach pytest 9's node ids)."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class _Scheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            return worker_scope(nodeid)
+    return _Scheduling(config, log)
+
+
+def _shared_fixtures(item) -> list:
+    """Return the module, class or package fixtures of a test not in CHEAP_SHARED_FIXTURES."""
+    info = getattr(item, '_fixtureinfo', None)
+    found = []
+    for name, defs in (info.name2fixturedefs.items() if info else ()):
+        for d in defs:
+            where = f'{os.path.basename(d.func.__code__.co_filename)}::{name}'
+            if d.scope in ('module', 'class', 'package') and where not in CHEAP_SHARED_FIXTURES:
+                found.append(where)
+    return found
 
 
 def _in_quick_paths(path) -> bool:
@@ -72,42 +92,12 @@ def pytest_collection_modifyitems(config, items):
         if _in_quick_paths(item.path) and not any(
                 item.get_closest_marker(m) for m in NOT_QUICK):
             item.add_marker(pytest.mark.quick)
-    shared = {item.path for item in items if _uses_a_shared_fixture(item)}
-    for item in items:
-        group = _worker_group(item.path, item.path in shared)
-        if group and item.get_closest_marker('xdist_group') is None:
-            item.add_marker(pytest.mark.xdist_group(group))
-
-
-#: module fixtures cheap enough to set up on every worker (a module using only these is spread):
-#: 'file::fixture'
-CHEAP_SHARED_FIXTURES = {'conftest.py::_no_stray_processes', 'test_clean_shutdown.py::graph',
-                         'test_clean_shutdown.py::replay_bag'}
-
-
-def _uses_a_shared_fixture(item) -> bool:
-    """Return whether a test uses a module, class or package fixture (a shared bringup)."""
-    info = getattr(item, '_fixtureinfo', None)
-    for name, defs in (info.name2fixturedefs.items() if info else ()):
-        for d in defs:
-            where = f'{os.path.basename(d.func.__code__.co_filename)}::{name}'
-            if d.scope in ('module', 'class', 'package') and where not in CHEAP_SHARED_FIXTURES:
-                return True
-    return False
-
-
-def _worker_group(path, shared: bool):
-    """
-    Return the pytest-xdist group of a test module, or None to hand its tests out one by one.
-
-    SERIAL_GROUPS first; then a module whose tests share a fixture (a bringup, a demo run) is
-    one group so the fixture is set up once; the others' tests go wherever a worker is free.
-    """
-    rel = os.path.relpath(str(path), ROOT).replace(os.sep, '/')
-    for prefix, group in SERIAL_GROUPS.items():
-        if rel.startswith(prefix):
-            return group
-    return rel if shared else None
+        rel = os.path.relpath(str(item.path), ROOT).replace(os.sep, '/')
+        shared = _shared_fixtures(item) if rel in SPREAD_MODULES else []
+        if shared:
+            raise pytest.UsageError(
+                f'{item.nodeid} is in SPREAD_MODULES (test/conftest.py) but uses the shared '
+                f'fixture(s) {shared}: each worker would set them up; remove it from the list')
 
 
 class QuickTierViolation(RuntimeError):
