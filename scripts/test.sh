@@ -10,7 +10,7 @@ source "$ROOT/scripts/env.sh"
 # Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them (0: one process, no xdist). Worker
 # K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
 # module goes to one worker whole, except SPREAD_MODULES (test/conftest.py: its scheduler).
-WORKERS=${PX100_TEST_WORKERS:-3}
+WORKERS=${PX100_TEST_WORKERS:-2}
 export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % (90 - WORKERS)) + 10 ))}
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 unset ROS_LOCALHOST_ONLY
@@ -29,4 +29,4 @@ if [ "$RERUNS" -gt 0 ]; then
   set -- --reruns "$RERUNS" --reruns-delay 1 "$@"
 fi
 # the slowest 20 tests and their times close every run (--durations=20)
-python -m pytest -q -rR -p no:cacheprovider --durations=20 "$@"
+python -m pytest -q -rfER -p no:cacheprovider --durations=20 "$@"
