@@ -7,12 +7,21 @@ bash "$ROOT/scripts/setup.sh"
 bash "$ROOT/scripts/setup_browser.sh"
 # shellcheck disable=SC1091
 source "$ROOT/scripts/env.sh"
-export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % 90) + 10 ))}
+# Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them (0: one process, no xdist). Worker
+# K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
+# module goes to one worker whole, except SPREAD_MODULES (test/conftest.py: its scheduler).
+WORKERS=${PX100_TEST_WORKERS:-2}
+export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % (90 - WORKERS)) + 10 ))}
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 unset ROS_LOCALHOST_ONLY
 export MPLBACKEND=Agg
 cd "$ROOT"
-echo "[test] ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
+if [ "$WORKERS" -gt 0 ]; then
+  echo "[test] $WORKERS workers, ROS_DOMAIN_ID=$ROS_DOMAIN_ID..$(( ROS_DOMAIN_ID + WORKERS - 1 ))"
+  set -- -n "$WORKERS" "$@"
+else
+  echo "[test] ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
+fi
 # Reruns are opt-in: PX100_RERUNS=2 retries a failed test up to twice (listed in the summary as
 # "rerun", their first failures in out/reruns.log); by default a failure is a failure.
 RERUNS=${PX100_RERUNS:-0}
@@ -20,4 +29,4 @@ if [ "$RERUNS" -gt 0 ]; then
   set -- --reruns "$RERUNS" --reruns-delay 1 "$@"
 fi
 # the slowest 20 tests and their times close every run (--durations=20)
-python -m pytest -q -rR -p no:cacheprovider --durations=20 "$@"
+python -m pytest -q -rfER -p no:cacheprovider --durations=20 "$@"

@@ -4,6 +4,13 @@ Shared test setup: a private DDS domain for this run, localhost-only discovery, 
 The domain comes from ROS_DOMAIN_ID if the runner set one (scripts/test.sh picks a random one),
 otherwise one derived from the process id, so parallel runs do not see each other.
 
+Parallel workers (pytest-xdist, ``-n N``; scripts/test.sh): worker ``gwK`` runs in domain
+ROS_DOMAIN_ID + K and serves its viewer tests from PX100_VIEWER_TEST_PORT + 40 K, so workers share
+no DDS graph and no port, and the stray-process cleanup (by domain) sees only its own worker's
+programs. The scheduler (pytest_xdist_make_scheduler) hands out a test module at a time, so a
+module's shared fixture (a bringup, a demo run) is set up once; the tests of SPREAD_MODULES
+(each starts its own processes) go out one by one; SERIAL_GROUPS put modules on one worker.
+
 The quick tier (``pytest -m quick``, ``bash scripts/test_quick.sh``): the tests of the pure
 layers (QUICK_PATHS) not marked ros, slow, stress or linter get the ``quick`` marker. A quick
 test that starts a ROS graph (an rclpy context, a node executable) fails, so a graph test cannot
@@ -19,11 +26,45 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
+#: this process's pytest-xdist worker number (gw0 -> 0), None outside a parallel run
+WORKER = (int(os.environ['PYTEST_XDIST_WORKER'][2:])
+          if os.environ.get('PYTEST_XDIST_WORKER', '').startswith('gw') else None)
+#: viewer test ports a worker may use (test/viewer/viewer_support.py takes base .. base + 29)
+WORKER_PORT_STRIDE = 40
+if WORKER is not None and 'PX100_WORKER_DOMAIN_BASE' not in os.environ:
+    os.environ['PX100_WORKER_DOMAIN_BASE'] = os.environ['ROS_DOMAIN_ID']
+    os.environ['ROS_DOMAIN_ID'] = str(int(os.environ['ROS_DOMAIN_ID']) + WORKER)
+    os.environ['PX100_VIEWER_TEST_PORT'] = str(
+        int(os.environ.get('PX100_VIEWER_TEST_PORT', '8130')) + WORKER_PORT_STRIDE * WORKER)
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 import pytest  # noqa: E402
-from tiers import NOT_QUICK, QUICK_PATHS  # noqa: E402
+from tiers import CHEAP_SHARED_FIXTURES, NOT_QUICK, QUICK_PATHS, SPREAD_MODULES, \
+    worker_scope  # noqa: E402
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """Schedule by worker_scope (xdist's loadgroup marks do not reach pytest 9's node ids)."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class _Scheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            return worker_scope(nodeid)
+    return _Scheduling(config, log)
+
+
+def _shared_fixtures(item) -> list:
+    """Return the module, class or package fixtures of a test not in CHEAP_SHARED_FIXTURES."""
+    info = getattr(item, '_fixtureinfo', None)
+    found = []
+    for name, defs in (info.name2fixturedefs.items() if info else ()):
+        for d in defs:
+            where = f'{os.path.basename(d.func.__code__.co_filename)}::{name}'
+            if d.scope in ('module', 'class', 'package') and where not in CHEAP_SHARED_FIXTURES:
+                found.append(where)
+    return found
 
 
 def _in_quick_paths(path) -> bool:
@@ -51,6 +92,12 @@ def pytest_collection_modifyitems(config, items):
         if _in_quick_paths(item.path) and not any(
                 item.get_closest_marker(m) for m in NOT_QUICK):
             item.add_marker(pytest.mark.quick)
+        rel = os.path.relpath(str(item.path), ROOT).replace(os.sep, '/')
+        shared = _shared_fixtures(item) if rel in SPREAD_MODULES else []
+        if shared:
+            raise pytest.UsageError(
+                f'{item.nodeid} is in SPREAD_MODULES (test/conftest.py) but uses the shared '
+                f'fixture(s) {shared}: each worker would set them up; remove it from the list')
 
 
 class QuickTierViolation(RuntimeError):

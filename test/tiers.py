@@ -1,5 +1,8 @@
 """
-What the quick tier runs (``pytest -m quick``, ``bash scripts/test_quick.sh``).
+What the quick tier runs, and how the full suite is split over parallel workers.
+
+The quick tier: ``pytest -m quick``, ``bash scripts/test_quick.sh``. The parallel workers:
+``scripts/test.sh`` (pytest-xdist), scheduled by worker_scope (test/conftest.py).
 
 The full suite runs everything. The tier is the tests under QUICK_PATHS that carry none of
 NOT_QUICK's markers (test/conftest.py marks them ``quick`` and fails one that starts a ROS
@@ -29,3 +32,33 @@ QUICK_ROBOTS = ('px100', 'wx250s', 'myarm300pi', 'rrrp')
 def robots(names):
     """Return pytest parameters of ``names``; those not in QUICK_ROBOTS are marked slow."""
     return [n if n in QUICK_ROBOTS else pytest.param(n, marks=pytest.mark.slow) for n in names]
+
+
+#: modules that share a pytest-xdist worker (run one after another, never beside each other):
+#: the stress package shares one graph (a package fixture) and loads the machine on purpose; the
+#: demo's viewer and the documented commands (viewer, demo --viewer) serve the default port 8080
+SERIAL_GROUPS = {'test/stress/': 'stress', 'test/docs/test_documented_commands.py': 'port_8080',
+                 'test/viewer/test_viewer_demo_end.py': 'port_8080'}
+#: slow modules whose tests share no module fixture (each starts its own processes): their tests
+#: are handed out one by one, to run beside each other (checked at collection)
+SPREAD_MODULES = ('test/test_clean_shutdown.py', 'test/client/test_client_demo.py',
+                  'test/bag/test_bag_complete.py', 'test/examples/test_examples.py',
+                  'test/client/test_client_interbotix_scripts.py',
+                  'test/client/test_client_seed000.py', 'test/client/test_client_interrupt.py',
+                  'test/client/test_client_lifecycle.py', 'test/nodes/test_duplicate_nodes.py',
+                  'test/nodes/test_world_nodes.py', 'test/test_launch_files.py',
+                  'test/robots/test_client_robots.py', 'test/robots/test_ik_service_robots.py',
+                  'test/sim/test_sim_driver_node.py')
+#: module fixtures cheap enough to set up on every worker that runs a SPREAD_MODULES test:
+#: 'file::fixture'
+CHEAP_SHARED_FIXTURES = {'conftest.py::_no_stray_processes', 'test_clean_shutdown.py::graph',
+                         'test_clean_shutdown.py::replay_bag'}
+
+
+def worker_scope(nodeid: str) -> str:
+    """Return the unit a pytest-xdist worker gets a test in: its group, its module, or itself."""
+    module = nodeid.split('::', 1)[0]
+    for prefix, group in SERIAL_GROUPS.items():
+        if module.startswith(prefix):
+            return group
+    return nodeid if module in SPREAD_MODULES else module

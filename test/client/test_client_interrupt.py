@@ -53,7 +53,7 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
     """SIGINT mid-move: arm at rest within 0.2 s, short of the goal; one line; exit 130."""
     from rclpy.node import Node
     ns = f'px100_int_{os.getpid()}_{int(with_recorder)}'
-    node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
+    node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}')
     node = spin_node(Node('interrupt_watcher', context=rclpy_context))
     watcher = _Watcher(node, ns)
     bag = str(tmp_path / 'bag') if with_recorder else ''

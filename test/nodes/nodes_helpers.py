@@ -154,9 +154,14 @@ class TrajectoryClient(Node):
 
 
 def start_node(processes, name: str, *params: str):
-    """Start an installed executable with ``-p`` parameters; return the NodeProcess."""
+    """
+    Start an installed executable with ``-p`` parameters; return the NodeProcess.
+
+    ``bringup`` starts without its camera process (``--no-camera``): the node tests do not look
+    at images, and a camera renders on ~0.3 core.
+    """
     from px100_control.tools.processes import NodeProcess
-    args = ['--ros-args']
+    args = (['--no-camera'] if name == 'bringup' else []) + ['--ros-args']
     for p in params:
         args += ['-p', p]
     proc = NodeProcess(name, args)

@@ -26,8 +26,8 @@ def _wait(predicate, timeout):
 def test_two_bringups_in_one_namespace_are_named(node_process):
     """Both sim_drivers and both trajectory_servers (same namespace, same names) are named."""
     ns = f'px100_dup_{os.getpid()}'
-    a = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
-    b = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
+    a = node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}')
+    b = node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}')
     text = (f"2 drivers publish joint_states under '/{ns}': /{ns}/sim_driver (x2, same name)")
     assert _wait(lambda: text in a.output() or text in b.output(), 40.0), \
         a.output()[-2000:] + b.output()[-2000:]
@@ -69,7 +69,7 @@ def test_in_process_bringup_beside_a_running_one_is_refused(node_process):
     from px100_control.client import (InterbotixException, InterbotixManipulatorXS,
                                       robot_shutdown)
     ns = f'px100_dup2_{os.getpid()}'
-    nodes = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
+    nodes = node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}')
     assert nodes.wait_for_output('trajectory_server ready', 60.0), nodes.output()
     try:
         with pytest.raises(InterbotixException) as err:
@@ -106,7 +106,7 @@ def test_replay_into_a_live_graph_withholds_commands(node_process, tmp_path, sen
     ns = f'px100_rep_{os.getpid()}_{int(send)}'
     bag = str(tmp_path / 'bag')
     _command_bag(bag, ns)
-    nodes = node_process('bringup', '--ros-args', '-p', f'robot_name:={ns}')
+    nodes = node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}')
     assert nodes.wait_for_output('trajectory_server ready', 60.0), nodes.output()
     listener = node_process('record', '-o', str(tmp_path / 'seen'), '--no-tf',
                             'trajectory/goal', 'commands/joint_setpoints', '--ros-args', '-p',

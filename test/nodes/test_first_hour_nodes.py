@@ -275,7 +275,7 @@ def test_script_beside_the_bringup_executable_gets_no_mode_warning(tmp_path):
         'ok_flip = bot.arm.set_ee_pose_components(x=0.2, z=0.15, roll=3.0, pitch=0.5)[1]\n'
         "print('RESULT', ok_reach, ok_flip)\n"
         'robot_shutdown()\n')
-    with NodeProcess('bringup', ['--ros-args', '-r', '__ns:=/fh_live']) as up:
+    with NodeProcess('bringup', ['--no-camera', '--ros-args', '-r', '__ns:=/fh_live']) as up:
         assert up.wait_for_output('trajectory_server ready', STARTUP_TIMEOUT), up.output()
         env = dict(os.environ, PX100_BRINGUP='0', PYTHONUNBUFFERED='1')
         out = subprocess.run(['python', str(script)], capture_output=True, text=True,

@@ -21,7 +21,9 @@ NODES = ('sim_driver', 'ik_service', 'trajectory_server')
 
 
 def _start(processes, name, *ros_args):
-    proc = NodeProcess(name, ['--ros-args', *ros_args])
+    # bringup without its camera process: no test here looks at images (~0.3 core each)
+    pre = ['--no-camera'] if name == 'bringup' else []
+    proc = NodeProcess(name, [*pre, '--ros-args', *ros_args])
     processes.append(proc)
     return proc
 

@@ -25,7 +25,7 @@ def graph(browser, ros_context):
     from px100_control.tools.processes import NodeProcess
     from rclpy.executors import SingleThreadedExecutor
     # no scene in sim_driver: the world on the page is this test's own MarkerArray
-    procs = [NodeProcess('bringup', ['--ros-args', '-p', "scene:=''"]),
+    procs = [NodeProcess('bringup', ['--no-camera', '--ros-args', '-p', "scene:=''"]),
              NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}']),
              NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT_RO}',
                                     '-p', 'read_only:=true', '-r', '__node:=viewer_ro'])]

@@ -110,7 +110,7 @@ def test_viewer_takes_another_robot_from_its_urdf(browser, rclpy_context, spin_n
     from px100_control.ros.viewer_node import ViewerNode
     from rclpy.parameter import Parameter
     wx250s = load_robot('wx250s')
-    nodes = node_process('bringup', '--ros-args', '-r', '__ns:=/arm2', '-p',
+    nodes = node_process('bringup', '--no-camera', '--ros-args', '-r', '__ns:=/arm2', '-p',
                          'robot_model:=wx250s', '-p', 'robot_name:=arm2')
     viewer = ViewerNode(context=rclpy_context, namespace='/arm2', parameter_overrides=[
         Parameter('robot_name', value='arm2'), Parameter('port', value=PORT_BASE + 21)])

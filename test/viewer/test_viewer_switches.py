@@ -17,7 +17,7 @@ def test_bringup_viewer_option_serves_the_page_with_the_scene(browser, node_proc
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from visualization_msgs.msg import MarkerArray
     port = PORT_BASE + 5
-    proc = node_process('bringup', '--viewer', '--ros-args', '-p', f'port:={port}')
+    proc = node_process('bringup', '--viewer', '--no-camera', '--ros-args', '-p', f'port:={port}')
     counts = []
     listener = Node('viewer_scene_listener', context=rclpy_context)
     listener.create_subscription(
