@@ -7,10 +7,10 @@ bash "$ROOT/scripts/setup.sh"
 bash "$ROOT/scripts/setup_browser.sh"
 # shellcheck disable=SC1091
 source "$ROOT/scripts/env.sh"
-# Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them (0: one process, no xdist). Worker
-# K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
+# Parallel workers (pytest-xdist, opt-in): PX100_TEST_WORKERS of them (default 0: one
+# process). Worker K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
 # module goes to one worker whole, except SPREAD_MODULES (test/conftest.py: its scheduler).
-WORKERS=${PX100_TEST_WORKERS:-2}
+WORKERS=${PX100_TEST_WORKERS:-0}
 export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % (90 - WORKERS)) + 10 ))}
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 unset ROS_LOCALHOST_ONLY
