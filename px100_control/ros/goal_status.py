@@ -7,7 +7,8 @@ The trajectory server's message side: goals in, GoalStatus history and diagnosti
 ``StatusBook`` keeps the last ``limit`` goals' GoalStatus (keyed by the goal stamp, UUID =
 ``stamp_uuid(stamp)``), answers what CancelGoal returns for a goal that is not running, and
 builds the /diagnostics message of a terminal status (name ``<robot_name>/trajectory_server``,
-``hardware_id`` the goal id, level OK / WARN / ERROR for SUCCEEDED / CANCELED / ABORTED).
+``hardware_id`` the goal id: ``sec.nanosec``, or an action goal's UUID in hex; level OK / WARN /
+ERROR for SUCCEEDED / CANCELED / ABORTED).
 """
 from collections import OrderedDict
 
@@ -95,11 +96,12 @@ class StatusBook:
 
 def diagnostic(now_msg, name: str, key: tuple, level, message: str,
                status: str) -> DiagnosticArray:
-    """Return the /diagnostics message of a goal's outcome (``key``: its stamp key)."""
+    """Return the /diagnostics message of a goal's outcome (``key``: its stamp key or id text)."""
     arr = DiagnosticArray()
     arr.header.stamp = now_msg
     arr.status = [DiagnosticStatus(level=level, name=name, message=message,
-                                   hardware_id=f'{key[0]}.{key[1]:09d}',
+                                   hardware_id=key if isinstance(key, str) else
+                                   f'{key[0]}.{key[1]:09d}',
                                    values=[KeyValue(key='status', value=status)])]
     return arr
 

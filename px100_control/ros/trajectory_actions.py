@@ -52,7 +52,8 @@ class ActionGoal:
         self.handle = handle
         self.goal_info = GoalInfo(goal_id=handle.goal_id, stamp=handle._goal_info.stamp)
         self.status = GoalStatus.STATUS_EXECUTING
-        self.label = 'action ' + bytes(handle.goal_id.uuid).hex()[:8]
+        self.diag_id = bytes(handle.goal_id.uuid).hex()   # its /diagnostics hardware_id
+        self.label = 'action ' + self.diag_id[:8]
 
 
 def arm_goal_request(goal, names, tag: ActionGoal):

@@ -314,7 +314,7 @@ class TrajectoryServerNode(Node):
         self._actions.finished(goal, name, reason, code)   # an action goal's result
         goal.tag.status = status
         self._publish_status()
-        self._diagnose(goal.key, DIAG_LEVEL[status], reason, name)
+        self._diagnose(getattr(goal.tag, 'diag_id', goal.key), DIAG_LEVEL[status], reason, name)
         self._log({GoalStatus.STATUS_ABORTED: 'error', GoalStatus.STATUS_CANCELED: 'warning'}
                   .get(status, 'info'), f'goal {goal.label} {name}: {reason}')
 

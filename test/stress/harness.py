@@ -412,6 +412,8 @@ class Probe:
         self.ik_status: Dict[str, List[DiagnosticStatus]] = defaultdict(list)
         self.ik_solutions: Dict[str, List[JointState]] = defaultdict(list)
         self.path_solutions: Dict[str, List[JointTrajectory]] = defaultdict(list)
+        #: status per goal id: 'sec.nanosec' (a goal on trajectory/goal) or an action goal's
+        #: UUID in hex (also its /diagnostics hardware_id)
         self.goal_status: Dict[str, int] = {}
         self.goal_history: Dict[str, List[int]] = defaultdict(list)
         self.status_msgs = 0
@@ -432,6 +434,10 @@ class Probe:
         n.create_subscription(JointState, t('trajectory/feedback'), self._on_feedback, RELIABLE)
         n.create_subscription(PoseStamped, t('ee_pose'), self._on_ee_pose, SENSOR)
         n.create_subscription(GoalStatusArray, t('trajectory/status'), self._on_status, LATCHED)
+        # the client's goals are the trajectory action's: their statuses are on its status topic
+        n.create_subscription(GoalStatusArray,
+                              t('arm_controller/follow_joint_trajectory/_action/status'),
+                              self._on_action_status, LATCHED)
         n.create_subscription(DiagnosticStatus, t('ik/status'), self._on_ik_status, RELIABLE)
         n.create_subscription(JointState, t('ik/solution'), self._on_ik_solution, RELIABLE)
         n.create_subscription(JointTrajectory, t('ik/path_solution'), self._on_path_solution,
@@ -521,11 +527,16 @@ class Probe:
         if not _finite([p.x, p.y, p.z, o.x, o.y, o.z, o.w]):
             self._violation('ee_pose', ['non-finite pose'], msg)
 
-    def _on_status(self, msg: GoalStatusArray) -> None:
+    def _on_action_status(self, msg: GoalStatusArray) -> None:
+        self._on_status(msg, action=True)
+
+    def _on_status(self, msg: GoalStatusArray, action: bool = False) -> None:
         with self.cond:
             self.status_msgs += 1
             for s in msg.status_list:
                 gid = stamp_text(s.goal_info.stamp)
+                if action:
+                    gid = bytes(s.goal_info.goal_id.uuid).hex()
                 self.status_seen_goals[gid] = self.status_msgs
                 if self.goal_status.get(gid) != s.status:
                     self.goal_history[gid].append(s.status)

@@ -48,11 +48,9 @@ def _json_line(text: str) -> Optional[dict]:
 
 
 def client_goal_key(bot) -> Optional[str]:
-    """Return the id of the client's last goal."""
+    """Return the id of the client's last goal (an action goal's UUID in hex)."""
     last = getattr(bot.arm, '_last_goal', None)
-    if last is None:
-        return None
-    return f'{last.key[0]}.{last.key[1]:09d}'
+    return None if last is None else last.uuid.hex()
 
 
 # -- faults ----------------------------------------------------------------------------------
@@ -79,7 +77,7 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
 
         def move(target=target, result=result):
             pending = bot.core.send_trajectory(arm.joint_names, [target], [moving_time])
-            result['key'] = f'{pending.key[0]}.{pending.key[1]:09d}'
+            result['key'] = pending.uuid.hex()   # the action goal's id (status by it)
             ok, reason = bot.core.wait_for_goal(pending, moving_time + 10.0)
             result['t_return'] = time.monotonic()
             result['ok'], result['reason'] = ok, reason
