@@ -145,14 +145,9 @@ class InterbotixArmTagInterface:
                                 float(msg.k[4]), float(msg.k[2]), float(msg.k[5]))
 
     def _on_tf(self, msg: TFMessage) -> None:
-        for t in msg.transforms:
-            tr, q = t.transform.translation, t.transform.rotation
-            try:
-                self.tfBuffer.set_transform(t.header.frame_id, t.child_frame_id,
-                                            (tr.x, tr.y, tr.z), (q.x, q.y, q.z, q.w))
-            except InvalidInputError as exc:
-                self.node_inf.get_logger().warning(f'tf ignored: {exc}',
-                                                   throttle_duration_sec=5.0)
+        for reason in self.tfBuffer.add_message(msg):
+            self.node_inf.get_logger().warning(f'tf ignored: {reason}',
+                                               throttle_duration_sec=5.0)
 
     # ------------------------------------------------------------------ detection
     def _next_frame(self, after: int):

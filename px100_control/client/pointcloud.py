@@ -123,14 +123,9 @@ class InterbotixPointCloudInterface:
                                       'pc_filter)')
 
     def _on_tf(self, msg: TFMessage) -> None:
-        for t in msg.transforms:
-            tr, q = t.transform.translation, t.transform.rotation
-            try:
-                self.tf_buffer.set_transform(t.header.frame_id, t.child_frame_id,
-                                             (tr.x, tr.y, tr.z), (q.x, q.y, q.z, q.w))
-            except InvalidInputError as exc:
-                self.node_inf.get_logger().warning(f'tf ignored: {exc}',
-                                                   throttle_duration_sec=5.0)
+        for reason in self.tf_buffer.add_message(msg):
+            self.node_inf.get_logger().warning(f'tf ignored: {reason}',
+                                               throttle_duration_sec=5.0)
 
     def _call(self, client, request):
         """Call a service; return its response, or None (logged) after CALL_TIMEOUT."""

@@ -49,6 +49,22 @@ class TfBuffer:
             self._parent[child] = (parent, T)
             self._changed.notify_all()
 
+    def add_message(self, msg) -> list:
+        """
+        Store every transform of a tf2_msgs/TFMessage (read by its fields, no ROS import).
+
+        :return: the reason of each transform refused (the others are stored)
+        """
+        refused = []
+        for t in msg.transforms:
+            v, q = t.transform.translation, t.transform.rotation
+            try:
+                self.set_transform(t.header.frame_id, t.child_frame_id, (v.x, v.y, v.z),
+                                   (q.x, q.y, q.z, q.w))
+            except InvalidInputError as exc:
+                refused.append(str(exc))
+        return refused
+
     def frames(self) -> list:
         """Return every frame the buffer knows, sorted."""
         with self._lock:

@@ -90,10 +90,8 @@ class ViewerCamera:
         self._info = msg
 
     def _on_tf_static(self, msg: TFMessage) -> None:
-        for t in msg.transforms:
-            v, q = t.transform.translation, t.transform.rotation
-            self.tf.set_transform(t.header.frame_id, t.child_frame_id, (v.x, v.y, v.z),
-                                  (q.x, q.y, q.z, q.w))
+        for reason in self.tf.add_message(msg):
+            self.node.get_logger().warning(f'tf ignored: {reason}', throttle_duration_sec=10.0)
 
     def _on_marker(self, msg: Marker) -> None:
         if msg.action == Marker.DELETEALL:

@@ -57,3 +57,16 @@ def test_wait_for_returns_once_the_transform_arrives_or_none_after_the_timeout()
     T = tf.wait_for('a', 'b', 5.0)
     timer.join()
     assert T is not None and T[2, 3] == 1.0
+
+
+def test_add_message_stores_each_transform_and_returns_the_refused():
+    """A TFMessage's good transforms are stored; a bad one (one frame name) is refused, named."""
+    from types import SimpleNamespace as NS
+
+    def stamped(parent, child, x):
+        return NS(header=NS(frame_id=parent), child_frame_id=child, transform=NS(
+            translation=NS(x=x, y=0.0, z=0.0), rotation=NS(x=0.0, y=0.0, z=0.0, w=1.0)))
+    buf = TfBuffer()
+    refused = buf.add_message(NS(transforms=[stamped('c', 'c', 0.1), stamped('a', 'b', 0.5)]))
+    assert len(refused) == 1 and "'c' -> 'c'" in refused[0]
+    assert buf.lookup('a', 'b')[0, 3] == pytest.approx(0.5)
