@@ -11,7 +11,10 @@ source "$ROOT/scripts/env.sh"
 # process). Worker K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
 # module goes to one worker whole, except SPREAD_MODULES (test/conftest.py: its scheduler).
 WORKERS=${PX100_TEST_WORKERS:-0}
-export ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(( (RANDOM % (90 - WORKERS)) + 10 ))}
+# a domain no other ROS program on this host is using (scripts/free_domain.py says how it knows)
+DOMAINS=$(( WORKERS > 0 ? WORKERS : 1 ))
+ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(python "$ROOT/scripts/free_domain.py" "$DOMAINS")}
+export ROS_DOMAIN_ID
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 unset ROS_LOCALHOST_ONLY
 export MPLBACKEND=Agg

@@ -1,5 +1,9 @@
 """The parallel run's units (test/tiers.py, test/conftest.py): modules named exist; scopes."""
+import importlib.util
 import os
+import random
+import subprocess
+import sys
 
 import tiers
 
@@ -30,3 +34,35 @@ def test_workers_get_a_domain_and_ports_of_their_own():
     k = int(worker[2:])
     base = int(os.environ['PX100_WORKER_DOMAIN_BASE'])
     assert int(os.environ['ROS_DOMAIN_ID']) == base + k
+
+
+def _free_domain_module():
+    """Import scripts/free_domain.py (a script, not a package module)."""
+    spec = importlib.util.spec_from_file_location(
+        'free_domain', os.path.join(ROOT, 'scripts', 'free_domain.py'))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_free_domain_skips_a_domain_a_real_participant_holds():
+    """A real rclpy node in domain d makes d 'in use'; the picker then never returns d."""
+    free_domain = _free_domain_module()
+    domain = free_domain.free_domains(1)
+    assert domain is not None and not free_domain.domain_in_use(domain)
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+    code = ('import rclpy, sys\nrclpy.init()\nnode = rclpy.create_node("domain_holder")\n'
+            'print("ready", flush=True)\nsys.stdin.readline()\n')
+    holder = subprocess.Popen([sys.executable, '-c', code], env=env, text=True,
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    try:
+        assert holder.stdout.readline().strip() == 'ready', 'the holder node did not start'
+        assert free_domain.domain_in_use(domain), \
+            f'a node in domain {domain} holds none of its discovery ports'
+        only_that_one = random.Random(0)
+        only_that_one.shuffle = lambda starts: starts.sort(key=lambda d: d != domain)
+        assert free_domain.free_domains(1, rng=only_that_one) != domain
+        assert free_domain.free_domains(2, rng=only_that_one) not in (domain, domain - 1)
+    finally:
+        holder.stdin.close()
+        assert holder.wait(timeout=30) == 0
