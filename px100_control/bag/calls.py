@@ -5,14 +5,19 @@ A service with introspection on publishes each call on ``<service>/_service_even
 REQUEST_SENT / REQUEST_RECEIVED (client / server side, with the request) and RESPONSE_SENT /
 RESPONSE_RECEIVED (with the response), each carrying the client's id and the request's
 sequence number. An action's goals, cancels and result requests are calls of its three
-services (``<action>/_action/send_goal`` ...). A call is counted once per (client id,
-sequence number), however many sides recorded it. Only the ``info`` header of each event is
-read (plain CDR, no type definition needed), so this works on any bag. Times: ns since the
-epoch.
+services (``<action>/_action/send_goal`` ...). Events are paired into calls
+(:func:`pair_events`): with a client id, one call per (client id, sequence number), however
+many sides recorded it; without one (all zeros: the action servers' events, rclpy exposes no
+client id to them), each request is a call of its own and a response answers the oldest
+unanswered request of its sequence number, in stamp order, so two clients that share sequence
+numbers are not merged. Counting reads only the ``info`` header of each event (plain CDR, no type
+definition needed), so it works on any bag; :func:`read_calls` also names each call by its
+request (a goal id, a target stamp). Times: ns since the epoch.
 """
+from collections import deque
 from dataclasses import dataclass, field
 import struct
-from typing import Dict, Iterable, List, Set, Tuple
+from typing import Callable, Dict, Iterable, List, Optional, Tuple
 
 from px100_control.bag.ros_names import action_topic, service_event_topic
 from px100_control.errors import BagError
@@ -47,16 +52,83 @@ def event_info(data: bytes) -> EventInfo:
 
 
 @dataclass
-class _Calls:
-    requests: Set[Tuple[bytes, int]] = field(default_factory=set)
-    responses: Set[Tuple[bytes, int]] = field(default_factory=set)
+class Call:
+    """
+    One call: its client id and sequence number, when its request and response were seen.
 
-    def add(self, info: EventInfo) -> None:
-        key = (info.client_gid, info.sequence_number)
-        if info.event_type in REQUEST_EVENTS:
-            self.requests.add(key)
-        elif info.event_type in RESPONSE_EVENTS:
-            self.responses.add(key)
+    :param request_ns: the stamp [ns] of its first request event (None: no request recorded)
+    :param response_ns: the stamp [ns] of its first response event (None: unanswered)
+    :param key: what the request names (from :func:`read_calls`' key function), else None
+    """
+
+    client_gid: bytes
+    sequence_number: int
+    request_ns: Optional[int] = None
+    response_ns: Optional[int] = None
+    key: Optional[str] = None
+
+    @property
+    def answered(self) -> bool:
+        """Return True if both the request and the response are in the bag."""
+        return self.request_ns is not None and self.response_ns is not None
+
+
+def pair_events(events: Iterable[Tuple[EventInfo, Optional[str]]]) -> List[Call]:
+    """
+    Return the calls of one service's events (info, key of its request or None), by stamp.
+
+    A client id of zeros names no client: such requests are never merged, and each response
+    answers the oldest open request of its sequence number (one left without a request
+    becomes a call of its own).
+    """
+    calls: List[Call] = []
+    by_client: Dict[Tuple[bytes, int], Call] = {}
+    waiting: Dict[int, deque] = {}
+    for info, key in sorted(events, key=lambda e: e[0].stamp_ns):
+        request = info.event_type in REQUEST_EVENTS
+        if not request and info.event_type not in RESPONSE_EVENTS:
+            continue
+        ident = (info.client_gid, info.sequence_number)
+        if any(info.client_gid):
+            call = by_client.get(ident)
+            if call is None:
+                call = by_client[ident] = Call(*ident)
+                calls.append(call)
+        elif request:
+            call = Call(*ident)
+            calls.append(call)
+            waiting.setdefault(info.sequence_number, deque()).append(call)
+        else:
+            queue = waiting.get(info.sequence_number)
+            call = queue.popleft() if queue else None
+            if call is None:
+                call = Call(*ident)
+                calls.append(call)
+        if request and call.request_ns is None:
+            call.request_ns, call.key = info.stamp_ns, key if key is not None else call.key
+        elif not request and call.response_ns is None:
+            call.response_ns = info.stamp_ns
+    return calls
+
+
+def read_calls(reader, topic: str,
+               key: Optional[Callable[[object], str]] = None) -> List[Call]:
+    """
+    Return the calls on one ``_service_event`` topic of a bag (a BagReader).
+
+    :param key: function(decoded request) -> its name (e.g. the goal id in hex); requests are
+        decoded only with it (the bag's type definition is then needed)
+    :raises BagError: unknown topic, an unreadable event, or (with key) no usable definition
+    """
+    events = []
+    for raw in reader.iter_raw([topic]):
+        info = event_info(raw.data)
+        name = None
+        if key is not None and info.event_type in REQUEST_EVENTS:
+            msg = reader.decode(raw)
+            name = key(msg.request[0]) if len(msg.request) else None
+        events.append((info, name))
+    return pair_events(events)
 
 
 @dataclass
@@ -95,7 +167,7 @@ def summarise_calls(reader) -> List[CallSummary]:
     if not parts:
         return []
     out: Dict[str, CallSummary] = {}
-    calls: Dict[Tuple[str, str], _Calls] = {}
+    events: Dict[Tuple[str, str], list] = {}
     for raw in reader.iter_raw(sorted(parts)):
         name, kind, part = parts[raw.topic]
         summary = out.setdefault(name, CallSummary(name, kind))
@@ -107,9 +179,11 @@ def summarise_calls(reader) -> List[CallSummary]:
         except BagError:
             summary.unreadable += 1
             continue
-        calls.setdefault((name, part), _Calls()).add(info)
-    for (name, part), c in calls.items():
-        out[name].counts[part] = (len(c.requests), len(c.responses))
+        events.setdefault((name, part), []).append((info, None))
+    for (name, part), these in events.items():
+        calls = pair_events(these)
+        out[name].counts[part] = (sum(c.request_ns is not None for c in calls),
+                                  sum(c.response_ns is not None for c in calls))
     return [out[n] for n in sorted(out)]
 
 

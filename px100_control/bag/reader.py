@@ -5,8 +5,9 @@ A bag is given as its directory (``metadata.yaml`` + ``.mcap`` files), a directo
 only ``.mcap`` files, or one ``.mcap`` file. Every problem with the input (missing, empty,
 truncated, corrupt, not MCAP, unknown topic) raises :class:`~px100_control.errors.BagError`
 naming the file and what is wrong; nothing from inside the MCAP library leaks out. Messages are
-decoded from the schemas stored in the bag (``mcap_ros2``), so no ROS install is needed.
-Times are integer ns since the epoch.
+decoded from the schemas stored in the bag, so no ROS install is needed: ``ros2msg`` ones with
+``mcap_ros2``, ``ros2idl`` ones (service events, action types) with rosbags, which reads
+rosbag2's concatenated IDL form. Times are integer ns since the epoch.
 """
 from dataclasses import dataclass, field
 import heapq
@@ -20,6 +21,7 @@ from mcap.stream_reader import StreamReader
 from px100_control.bag import metadata as md
 from px100_control.errors import BagError
 from px100_control.wire.private_api import definition_decoders
+from rosbags.typesys import get_types_from_idl, get_typestore, Stores
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_AND_MAGIC = 1 + 8 + 20 + 8
@@ -303,12 +305,11 @@ class BagReader:
         text = self.schema_texts.get(type_name)
         if not text:
             raise BagError(f"{self.path}: no message definition stored for type '{type_name}'")
-        if self.schema_encodings.get(type_name) == 'ros2idl':
-            raise BagError(f"{self.path}: '{type_name}' has a ros2idl definition (a service "
-                           'event or action type): decode it with rosbags; inspect counts '
-                           'these calls from their headers')
         try:
-            decoders = definition_decoders(type_name, text)
+            if self.schema_encodings.get(type_name) == 'ros2idl':
+                decoders = _idl_decoders(type_name, text)
+            else:
+                decoders = definition_decoders(type_name, text)
         except Exception as exc:
             raise BagError(f"{self.path}: the stored definition of '{type_name}' cannot be "
                            f'parsed ({_reason(exc)})') from None
@@ -363,6 +364,35 @@ class BagReader:
                           files=list(self.paths), topics=topics, start_ns=start or 0,
                           end_ns=end or 0, message_count=count,
                           has_metadata_yaml=self.info is not None)
+
+
+def _idl_decoders(type_name: str, text: str) -> dict:
+    """
+    Return {type_name: decode(bytes) -> message} from a ``ros2idl`` schema.
+
+    rosbag2's form: each struct after a line of 80 ``=`` and ``IDL: pkg/ns/Name``; a plain IDL
+    text is read as one. Decoded messages are rosbags dataclasses (arrays of numbers as numpy).
+    Bytes after the last field are ignored (rosbags' ``deserialize_cdr`` refuses more than 3):
+    rclpy's ``serialize_message`` left 4 to 12 after a service event's last field.
+    """
+    separator = '=' * 80 + '\n'
+    parts = text.split(separator)[1:] if text.startswith(separator + 'IDL: ') else [text]
+    types = {}
+    for part in parts:
+        types.update(get_types_from_idl(part.split('\n', 1)[1] if part.startswith('IDL: ')
+                                        else part))
+    store = get_typestore(Stores.EMPTY)
+    store.register(types)
+    if type_name not in store.fielddefs:
+        return {}
+    msgdef = store.get_msgdef(type_name)
+
+    def decode(data: bytes):
+        if len(data) < 4 or bytes(data[:2]) not in (b'\x00\x00', b'\x00\x01'):
+            raise ValueError('not CDR (bad encapsulation header)')
+        read = msgdef.deserialize_cdr_le if data[1] else msgdef.deserialize_cdr_be
+        return read(memoryview(data)[4:], 0, msgdef.cls, store)[0]
+    return {type_name: decode}
 
 
 def open_bag(path: str) -> BagReader:

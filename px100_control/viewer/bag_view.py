@@ -2,9 +2,12 @@
 Play a recorded bag in the viewer's page, with a time slider (no ROS graph needed).
 
 The bag is read with :mod:`px100_control.bag.reader`: ``robot_description`` (the URDF drawn),
-``joint_states``, ``world/markers`` and ``world/held_object`` of one robot namespace. The page
-is read-only; a slider picks the time [s from the bag's start], a Play checkbox runs it at the
-chosen speed. The trail shows the end effector over the last ``trail_s`` seconds.
+``joint_states``, ``world/markers`` and ``world/held_object`` of one robot namespace, and the
+goals (path and target), goal statuses, IK targets and errors the live viewer shows, from the
+action's and ``compute_ik``'s events or an older bag's topics
+(:mod:`px100_control.viewer.bag_calls`). The page is read-only; a slider picks the time [s from
+the bag's start], a Play checkbox runs it at the chosen speed. The trail shows the end effector
+over the last ``trail_s`` seconds.
 """
 import bisect
 from dataclasses import dataclass, field
@@ -14,6 +17,7 @@ from typing import Callable, List, Optional, Tuple
 
 from px100_control.bag.reader import BagReader
 from px100_control.errors import BagError
+from px100_control.viewer.bag_calls import CallTimeline
 from px100_control.viewer.scene import ViewerScene
 from px100_control.viewer.state import ViewerState
 
@@ -32,10 +36,16 @@ class BagTimeline:
     marker_sets: List[list] = field(default_factory=list)
     held_times: List[float] = field(default_factory=list)
     held_names: List[str] = field(default_factory=list)
+    calls: CallTimeline = field(default_factory=CallTimeline)
 
     def index(self, times: List[float], t: float) -> int:
         """Return the index of the last sample at or before t (-1 if none)."""
         return bisect.bisect_right(times, t) - 1
+
+    def joints_at(self, t: float) -> dict:
+        """Return the recorded joints {name: value} at time t [s] (the first sample before)."""
+        names, positions, _ = self.joint_samples[max(0, self.index(self.joint_times, t))]
+        return dict(zip(names, positions))
 
 
 def _find_topic(topics, name: str, namespace: Optional[str]) -> Optional[str]:
@@ -44,6 +54,22 @@ def _find_topic(topics, name: str, namespace: Optional[str]) -> Optional[str]:
         return wanted if wanted in topics else None
     matches = sorted(t for t in topics if t == '/' + name or t.endswith('/' + name))
     return matches[0] if matches else None
+
+
+def _decodable(bag: BagReader, topic: str) -> bool:
+    """Return True if the bag holds a usable definition of the topic's type."""
+    try:
+        bag.decoder(bag.topics[topic])
+        return True
+    except BagError:
+        return False
+
+
+def _decoded(bag: BagReader, raw):
+    try:
+        return bag.decode(raw)
+    except BagError:
+        return None
 
 
 def load_bag(path: str, namespace: Optional[str] = None) -> BagTimeline:
@@ -63,13 +89,21 @@ def load_bag(path: str, namespace: Optional[str] = None) -> BagTimeline:
         markers, held = f'{ns}/world/markers', f'{ns}/world/held_object'
         if desc not in bag.topics:
             raise BagError(f'{path}: no {desc} in the bag: the viewer draws the recorded URDF')
-        wanted = [t for t in (js, desc, markers, held) if t in bag.topics]
+        calls = {t: k for t, k in CallTimeline.topics(ns, bag.topics).items()
+                 if _decodable(bag, t)}
+        wanted = [t for t in (js, desc, markers, held) if t in bag.topics] + list(calls)
         timeline = BagTimeline(path=path, namespace=ns.strip('/'), urdf_xml='', duration=0.0)
         t0 = None
-        for raw, msg in bag.iter_decoded(wanted):
+        for raw in bag.iter_raw(wanted):
             t0 = raw.log_time_ns if t0 is None else t0
             t = (raw.log_time_ns - t0) * 1e-9
             timeline.duration = max(timeline.duration, t)
+            if raw.topic in calls:      # a message that cannot be decoded is left out
+                msg = _decoded(bag, raw)
+                if msg is not None:
+                    timeline.calls.add(calls[raw.topic], t, msg)
+                continue
+            msg = bag.decode(raw)
             if raw.topic == js:
                 timeline.joint_times.append(t)
                 stamp = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
@@ -82,6 +116,7 @@ def load_bag(path: str, namespace: Optional[str] = None) -> BagTimeline:
             elif raw.topic == held:
                 timeline.held_times.append(t)
                 timeline.held_names.append(str(msg.data))
+    timeline.calls.finish()
     if not timeline.joint_samples:
         raise BagError(f'{path}: {js} has no messages')
     if not timeline.urdf_xml:
@@ -91,7 +126,7 @@ def load_bag(path: str, namespace: Optional[str] = None) -> BagTimeline:
 
 def state_at(timeline: BagTimeline, state: ViewerState, t: float, trail_s: float = 10.0,
              trail_step_s: float = 0.05) -> None:
-    """Set state to the bag at time t [s]: joints, world, held object and the trail."""
+    """Set state to the bag at time t [s]: joints, world, held object, trail, goals and IK."""
     if state.urdf_xml != timeline.urdf_xml:
         state.set_robot(timeline.urdf_xml)
     k = max(0, timeline.index(timeline.joint_times, t))
@@ -118,6 +153,7 @@ def state_at(timeline: BagTimeline, state: ViewerState, t: float, trail_s: float
     state.version['world'] += 1
     h = timeline.index(timeline.held_times, t)
     state.set_held(timeline.held_names[h] if h >= 0 else '')
+    timeline.calls.apply(state, t, timeline.joints_at)
 
 
 def serve_bag(path: str, host: str = '127.0.0.1', port: int = 8080,

@@ -312,12 +312,18 @@ class ViewerState:
             self._bump('world', 'status')
 
     def set_goal(self, goal_id: float, names: Sequence[str],
-                 points: Sequence[Sequence[float]]) -> None:
-        """Show a trajectory goal's end-effector path and target (through fk)."""
+                 points: Sequence[Sequence[float]],
+                 start: Optional[Dict[str, float]] = None) -> None:
+        """
+        Show a trajectory goal's end-effector path and target (through fk).
+
+        :param start: the joints the path starts from (None: the current ones)
+        """
         if self.fk is None:
             return
         self.goal_number(goal_id)
-        configs = interpolate_joint_path(self.joints, names, points)
+        configs = interpolate_joint_path(self.joints if start is None else start, names,
+                                         points)
         poses = [self.fk(q) for q in configs]
         self.path = [tuple(p[0]) for p in poses if p is not None]
         self.target = self.path[-1] if self.path else None
@@ -341,6 +347,25 @@ class ViewerState:
                 abs(goal_id - self.path_goal) < 1e-9 and self.path:
             self.path = []
             self._bump('path')
+
+    def clear_path(self) -> None:
+        """Show no goal path."""
+        if self.path or self.target is not None or self.path_goal is not None:
+            self.path, self.target, self.path_goal = [], None, None
+            self._bump('path')
+
+    def show_goal_status(self, text: str) -> None:
+        """Set the trajectory status line's text as it is ('' = no goal yet)."""
+        if text != self.goal_status:
+            self.goal_status = text
+            self._bump('status')
+
+    def show_ik_target(self, target) -> None:
+        """Set the IK target to (xyz, quat_xyzw), or None for none."""
+        if target != self.ik_target:
+            self.ik_target = None if target is None else (
+                tuple(float(v) for v in target[0]), tuple(float(v) for v in target[1]))
+            self._bump('ik')
 
     def set_ik_target(self, xyz: Sequence[float], quat_xyzw: Sequence[float]) -> None:
         """Set the last ik/request's target pose (quat all zero = orientation free)."""
