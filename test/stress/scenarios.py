@@ -469,7 +469,8 @@ def recorder_sigkill(graph: Graph, probe: Probe, lim, bag_dir: str, run_s: float
         else []
     out['files'] = files
     out['bytes'] = sum(os.path.getsize(os.path.join(bag_dir, f)) for f in files)
-    msgs = read_bag_messages(bag_dir, topics)
+    # the goal events are recorded, not decoded here (mcap_ros2 cannot decode service events)
+    msgs = read_bag_messages(bag_dir, [t for t in topics if t != GOAL_EVENTS])
     js = msgs['/px100/joint_states']
     out['stream_read_messages'] = sum(len(v) for v in msgs.values())
     out['stream_read_joint_states'] = len(js)
