@@ -302,7 +302,8 @@ def bench_setpoint_jitter(quick: bool) -> dict:
         pub_js.publish(js)
 
     pub_js = node.create_publisher(JointState, '/px100/joint_states', 10)
-    arm = ActionClient(node, FollowJointTrajectory, '/px100/arm_controller/follow_joint_trajectory')
+    arm = ActionClient(node, FollowJointTrajectory,
+                       '/px100/arm_controller/follow_joint_trajectory')
     node.create_subscription(JointState, '/px100/commands/joint_setpoints', on_setpoint, 100)
     node.create_timer(0.01, publish_state)
     # rclpy 7.1's EventsExecutor does not serve action clients
