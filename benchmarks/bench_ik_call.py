@@ -1,22 +1,17 @@
 """
-One IK call as another process makes it: the ``compute_ik`` service beside the topic pair.
+One IK call as another process makes it: the ``compute_ik`` service, one call at a time.
 
 The server runs as its own process, first the ik_service alone (``python -m
 px100_control.ros.ik_service_node``), then the whole ``bringup`` (sim_driver, ik_service,
 trajectory_server and robot_state_publisher in one process). A client process (this one) makes
 sequential calls, each as soon as the previous one was answered, from an rclpy node spinning
 in an executor thread (:func:`px100_control.ros.common.make_executor`, not
-``spin_until_future_complete``, which is 30-100x slower):
+``spin_until_future_complete``, which is 30-100x slower): ``compute_ik`` through
+``Client.call_async``, the round trip ending in the future's done callback.
 
-- service: ``compute_ik`` through ``Client.call_async``; the round trip ends in the future's
-  done callback;
-- topic pair: ``ik/request`` (PoseStamped, the stamp is the id), ended when both
-  ``ik/solution`` and ``ik/status`` of that id arrived (raw readers, the id read from the CDR).
-
-The same reachable px100 targets (default 'pitch' mode), the two forms interleaved in blocks of
-``BLOCK`` calls so both see the same machine load; a warm-up first. Reported per server: p50,
-p99 and max of the round trip [ms] for each form and their ratios (service / topic), and the
-machine's load average before and after. Bounded: every call must be answered within
+Reachable px100 targets (default 'pitch' mode); a warm-up block of ``BLOCK`` calls first.
+Reported per server: p50, p99 and max of the round trip [ms], and the machine's load average
+before and after. Bounded: every call must be answered within
 ``CALL_TIMEOUT`` s and the whole run ends within ``RUN_BOUND`` s, else it fails with what was
 missing.
 
@@ -34,7 +29,6 @@ import tempfile
 import threading
 import time
 
-from bench_ik_service import solution_id, status_id  # (also puts ROOT on the path)
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -44,7 +38,7 @@ if ROOT not in sys.path:
 from px100_control.ros.common import make_executor  # noqa: E402 - after the path fix
 
 RESULTS = os.path.join(ROOT, 'benchmarks', 'results', 'ik_call.json')
-#: calls of one form in a row before switching to the other
+#: warm-up calls (not counted), and how often the run's bound is checked
 BLOCK = 50
 #: largest wait for one answer [s]
 CALL_TIMEOUT = 5.0
@@ -97,44 +91,20 @@ def _targets(count: int, seed: int = 0):
 
 
 class _Caller:
-    """One client node: a compute_ik client and the ik/request topic pair, one call at a time."""
+    """One client node with a compute_ik client, one call at a time."""
 
     def __init__(self, ctx, tag: int):
-        from diagnostic_msgs.msg import DiagnosticStatus
-        from geometry_msgs.msg import PoseStamped
-        from px100_control.ros.ik_service_node import REQUEST_QOS
         from px100_control_msgs.srv import ComputeIK
         from rclpy.node import Node
-        from sensor_msgs.msg import JointState
         self.node = Node(f'ik_call_bench_{tag}', context=ctx)
         self.client = self.node.create_client(ComputeIK, '/px100/compute_ik')
-        self.pub = self.node.create_publisher(PoseStamped, '/px100/ik/request', REQUEST_QOS)
-        self.node.create_subscription(JointState, '/px100/ik/solution',
-                                      lambda raw: self._got(0, solution_id(raw)), REQUEST_QOS,
-                                      raw=True)
-        self.node.create_subscription(DiagnosticStatus, '/px100/ik/status',
-                                      lambda raw: self._got(1, status_id(raw)), REQUEST_QOS,
-                                      raw=True)
         self.request = ComputeIK.Request()
-        self.msg = PoseStamped()
-        self.msg.header.stamp.sec = tag
-        self.lock = threading.Lock()
-        self.seen = [set(), set()]
-        self.waiting = None
         self.done = threading.Event()
         self.last = None
 
     def ready(self) -> bool:
-        """Return True once the service and the topic pair are matched with the server."""
-        return (self.client.service_is_ready() and self.pub.get_subscription_count() > 0
-                and self.node.count_publishers('/px100/ik/status') > 0
-                and self.node.count_publishers('/px100/ik/solution') > 0)
-
-    def _got(self, kind: int, rid) -> None:
-        with self.lock:
-            self.seen[kind].add(rid[1])
-            if self.waiting == rid[1] and rid[1] in self.seen[1 - kind]:
-                self.done.set()
+        """Return True once the service is matched with the server."""
+        return self.client.service_is_ready()
 
     def _on_response(self, future) -> None:
         self.last = future.result()
@@ -152,20 +122,6 @@ class _Caller:
         if not self.last.success:
             raise BenchError(f'compute_ik refused a reachable target: {self.last.message}')
         return dt
-
-    def call_topic(self, pose, seq: int) -> float:
-        """Return the round trip [s] of one ik/request until its solution and status."""
-        msg = self.msg
-        msg.header.stamp.nanosec = seq
-        msg.pose = pose
-        with self.lock:
-            self.waiting = seq
-            self.done.clear()
-        t0 = time.perf_counter()
-        self.pub.publish(msg)
-        if not self.done.wait(CALL_TIMEOUT):
-            raise BenchError(f'ik/request {seq}: no solution and status within {CALL_TIMEOUT} s')
-        return time.perf_counter() - t0
 
 
 def _stats(seconds) -> dict:
@@ -185,7 +141,7 @@ def _spin(executor, ctx) -> None:
 
 
 def bench_server(name: str, calls: int, poses, deadline: float) -> dict:
-    """Start one server, time ``calls`` calls of each form against it; return the figures."""
+    """Start one server, time ``calls`` calls against it; return the figures."""
     import rclpy
     server = _start(SERVERS[name])
     ctx = rclpy.Context()
@@ -204,17 +160,14 @@ def bench_server(name: str, calls: int, poses, deadline: float) -> dict:
                                  f'(exit {server.poll()}): {_tail(server)}')
             time.sleep(0.05)
         time.sleep(1.0)    # discovery of the reply readers settles
-        times = {'service': [], 'topic': []}
+        times = []
         seq = 0
         for k in range(calls // BLOCK + 1):              # the first block is the warm-up
-            for form in ('service', 'topic'):
-                for i in range(BLOCK):
-                    seq += 1
-                    pose = poses[seq % len(poses)]
-                    dt = (caller.call_service(pose) if form == 'service'
-                          else caller.call_topic(pose, seq))
-                    if k:
-                        times[form].append(dt)
+            for i in range(BLOCK):
+                seq += 1
+                dt = caller.call_service(poses[seq % len(poses)])
+                if k:
+                    times.append(dt)
             if time.monotonic() > deadline:
                 raise BenchError(f'{name}: the run passed its {RUN_BOUND} s bound')
     finally:
@@ -222,9 +175,7 @@ def bench_server(name: str, calls: int, poses, deadline: float) -> dict:
         caller.node.destroy_node()
         ctx.try_shutdown()
         _stop(server)
-    out = {form: _stats(t) for form, t in times.items()}
-    out['ratio_p50'] = round(out['service']['p50_ms'] / out['topic']['p50_ms'], 3)
-    out['ratio_p99'] = round(out['service']['p99_ms'] / out['topic']['p99_ms'], 3)
+    out = {'service': _stats(times)}
     out['loadavg_before'] = [round(x, 2) for x in load0]
     out['loadavg_after'] = [round(x, 2) for x in os.getloadavg()]
     return out
@@ -244,15 +195,13 @@ def run(quick: bool = True) -> dict:
     out = {name: bench_server(name, calls, poses, deadline) for name in SERVERS}
     out['machine'] = {'cpus': os.cpu_count(), 'python': platform.python_version()}
     out['quick'] = quick
-    rows = ['| server | form | calls | p50 [ms] | p99 [ms] | max [ms] | load before / after |',
-            '| --- | --- | ---: | ---: | ---: | ---: | --- |']
+    rows = ['| server | calls | p50 [ms] | p99 [ms] | max [ms] | load before / after |',
+            '| --- | ---: | ---: | ---: | ---: | --- |']
     for name in SERVERS:
         r = out[name]
-        for form in ('service', 'topic'):
-            s = r[form]
-            rows.append(f"| {name} | {form} | {s['calls']} | {s['p50_ms']} | {s['p99_ms']} | "
-                        f"{s['max_ms']} | {r['loadavg_before'][0]} / {r['loadavg_after'][0]} |")
-        rows.append(f"| {name} | service / topic | | {r['ratio_p50']} | {r['ratio_p99']} | | |")
+        s = r['service']
+        rows.append(f"| {name} | {s['calls']} | {s['p50_ms']} | {s['p99_ms']} | "
+                    f"{s['max_ms']} | {r['loadavg_before'][0]} / {r['loadavg_after'][0]} |")
     out['markdown'] = '\n'.join(rows)
     return out
 

@@ -3,20 +3,17 @@ Benchmark of the ik_service node over DDS, and of the trajectory_server setpoint
 
 - IK throughput and latency: the ik_service runs as its own process (``python -m
   px100_control.ros.ik_service_node``, the ``ros2 run`` entry point's code); clients in this
-  process send ``ik/request`` (reachable random px100 targets, default 'pitch' mode) closed-loop:
-  each client sends its next request as soon as both replies (``ik/solution`` and ``ik/status``)
-  of the previous one arrived. Reported for 1 client and for 8 concurrent clients (8 nodes,
-  each with its own publisher and request id space): requests/s, round trip p50/p99/max [ms],
-  lost replies (a request without its solution or status when the run ends) and duplicated
-  replies. The replies are read by one raw (serialized CDR) reader pair that routes them by id
-  to their client, so that the client side costs as little as possible and the numbers are the
-  service's, not those of eight Python deserialisers sharing two cores with it.
-- Trajectory setpoint jitter: a trajectory_server (own process) executes a 3 s goal against a
-  joint-state echo in this process; the period of the received ``commands/joint_setpoints``
-  (stamps and arrival times) against 1/rate.
+  process call ``compute_ik`` (reachable random px100 targets, default 'pitch' mode)
+  closed-loop: each client makes its next call from the done callback of the previous one.
+  Reported for 1 client and for 8 concurrent clients (8 nodes, each with its own service
+  client, the service's deep request QoS): calls/s, round trip p50/p99/max [ms], lost calls (no
+  response when the round ends) and the server's CPU time per call.
+- Trajectory setpoint jitter: a trajectory_server (own process) executes one
+  FollowJointTrajectory goal against a joint-state echo in this process; the period of the
+  received ``commands/joint_setpoints`` (stamps and arrival times) against 1/rate.
 
-- Baseline: the same rounds against a 'null' service (same topics, QoS and replies, no IK: the
-  floor of the request/reply protocol in rclpy on this machine).
+- Baseline: the same rounds against a 'null' service (the same service type, QoS and
+  introspection, a fixed response, no IK: the floor of an rclpy service on this machine).
 
 ``run(quick)`` returns the numbers as a dict; ``main()`` prints them and writes
 ``benchmarks/results/ik_service.json`` (``--quick``: fewer requests). Set ROS_DOMAIN_ID to a
@@ -29,7 +26,6 @@ import json
 import os
 import platform
 import signal
-import struct
 import subprocess
 import sys
 import threading
@@ -77,27 +73,6 @@ def _stop(proc: subprocess.Popen) -> None:
             proc.wait(5)
 
 
-def _cdr_string(buf: bytes, off: int):
-    """Return (text, next offset) of a CDR string at off (4-aligned length incl. NUL)."""
-    off = (off + 3) & ~3
-    n = struct.unpack_from('<I', buf, off)[0]
-    return buf[off + 4:off + 3 + n].decode(), off + 4 + n
-
-
-def solution_id(raw: bytes):
-    """Return (sec, nanosec) of a serialized sensor_msgs/JointState (its header.stamp)."""
-    return struct.unpack_from('<iI', raw, 4)
-
-
-def status_id(raw: bytes):
-    """Return (sec, nanosec) of a serialized DiagnosticStatus from its hardware_id."""
-    _, off = _cdr_string(raw, 5)    # name (after the int8 level at offset 4)
-    _, off = _cdr_string(raw, off)  # message
-    hw, _ = _cdr_string(raw, off)
-    sec, nsec = hw.split('.')
-    return int(sec), int(nsec)
-
-
 def _targets(count: int, seed: int = 0):
     from px100_control.models.registry import load_robot
     from px100_control.ros.conversions import matrix_to_pose
@@ -107,70 +82,38 @@ def _targets(count: int, seed: int = 0):
 
 
 class _Client:
-    """One closed-loop IK client: its own node and publisher; replies come via a _Receiver."""
+    """One closed-loop compute_ik client: its own node; the next call from the last's callback."""
 
-    def __init__(self, ctx, index: int, run_sec: int, poses, n_requests: int, qos, done):
-        from geometry_msgs.msg import PoseStamped
+    def __init__(self, ctx, index: int, tag: int, poses, n_requests: int, done):
+        from px100_control.ros.ik_services import SERVICE_QOS
+        from px100_control_msgs.srv import ComputeIK
         from rclpy.node import Node
-        self.node = Node(f'ik_bench_client_{run_sec % 1000}_{index}', context=ctx)
-        self.pub = self.node.create_publisher(PoseStamped, '/px100/ik/request', qos)
-        self.sec = run_sec + index
+        self.node = Node(f'ik_bench_client_{tag}_{index}', context=ctx)
+        self.client = self.node.create_client(ComputeIK, '/px100/compute_ik',
+                                              qos_profile=SERVICE_QOS)
+        self.request = ComputeIK.Request()
         self.poses = poses
         self.n = n_requests
-        self.sent = {}       # nanosec -> send time
-        self.got = [{}, {}]  # kind (solution, status) -> nanosec -> count
         self.rtt = []
+        self.refused = 0
         self.done = done
         self.seq = 0
-        self.lock = threading.Lock()
-        self.msg = PoseStamped()
+        self.t_sent = 0.0
 
     def send_next(self) -> None:
-        with self.lock:
-            if self.seq >= self.n:
-                self.done.release()
-                return
-            self.seq += 1
-            i = self.seq
-            msg = self.msg
-            msg.header.stamp.sec = self.sec
-            msg.header.stamp.nanosec = i
-            msg.pose = self.poses[i % len(self.poses)]
-            self.sent[i] = time.perf_counter()
-        self.pub.publish(msg)
+        if self.seq >= self.n:
+            self.done.release()
+            return
+        self.seq += 1
+        self.request.target.pose = self.poses[self.seq % len(self.poses)]
+        self.t_sent = time.perf_counter()
+        self.client.call_async(self.request).add_done_callback(self._on_response)
 
-    def on_reply(self, kind: int, i: int) -> None:
-        now = time.perf_counter()
-        with self.lock:
-            seen = self.got[kind]
-            seen[i] = seen.get(i, 0) + 1
-            complete = seen[i] == 1 and self.got[1 - kind].get(i, 0) >= 1
-            if complete and i in self.sent:
-                self.rtt.append(now - self.sent[i])
-        if complete and i == self.seq:
-            self.send_next()
-
-
-class _Receiver:
-    """The reply side of the clients: raw ik/solution + ik/status readers, routed by id."""
-
-    def __init__(self, ctx, clients, qos, tag: int):
-        from diagnostic_msgs.msg import DiagnosticStatus
-        from rclpy.node import Node
-        from sensor_msgs.msg import JointState
-        self.by_sec = {c.sec: c for c in clients}
-        self.node = Node(f'ik_bench_receiver_{tag}', context=ctx)
-        self.node.create_subscription(JointState, '/px100/ik/solution',
-                                      lambda raw: self._route(0, solution_id(raw)), qos,
-                                      raw=True)
-        self.node.create_subscription(DiagnosticStatus, '/px100/ik/status',
-                                      lambda raw: self._route(1, status_id(raw)), qos,
-                                      raw=True)
-
-    def _route(self, kind: int, rid) -> None:
-        client = self.by_sec.get(rid[0])
-        if client is not None:
-            client.on_reply(kind, rid[1])
+    def _on_response(self, future) -> None:
+        self.rtt.append(time.perf_counter() - self.t_sent)
+        if not future.result().success:
+            self.refused += 1
+        self.send_next()
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -196,9 +139,9 @@ class _Spinner:
     starts, and the thread is joined and the executor shut down before any node is destroyed.
     """
 
-    def __init__(self, ctx, nodes):
+    def __init__(self, ctx, nodes, kind=None):
         self.ctx, self.nodes = ctx, list(nodes)
-        self.executor = make_executor(context=ctx)
+        self.executor = make_executor(context=ctx, kind=kind)
         for node in self.nodes:
             self.executor.add_node(node)
         self.running = threading.Event()
@@ -225,21 +168,18 @@ class _Spinner:
             node.destroy_node()
 
 
-def _ik_round(ctx, clients: int, n_requests: int, poses, qos, run_sec: int,
-              server_pid: int = 0, label: str = '') -> dict:
+def _ik_round(ctx, clients: int, n_requests: int, poses, tag: int, server_pid: int = 0,
+              label: str = '') -> dict:
     done = threading.Semaphore(0)
-    cl = [_Client(ctx, k, run_sec, poses, n_requests, qos, done) for k in range(clients)]
-    rx = _Receiver(ctx, cl, qos, run_sec % 1000)
-    spinner = _Spinner(ctx, [c.node for c in cl] + [rx.node])
+    cl = [_Client(ctx, k, tag, poses, n_requests, done) for k in range(clients)]
+    spinner = _Spinner(ctx, [c.node for c in cl])
     try:
         bound.stage(f'{label}: discovery of the service')
         deadline = time.monotonic() + 20.0
-        while time.monotonic() < deadline and not (
-                all(c.pub.get_subscription_count() > 0 for c in cl)
-                and rx.node.count_publishers('/px100/ik/status') > 0):
+        while time.monotonic() < deadline and not all(c.client.service_is_ready() for c in cl):
             time.sleep(0.05)
         time.sleep(1.0)  # discovery of the reply readers settles
-        bound.stage(f'{label}: {clients} x {n_requests} requests')
+        bound.stage(f'{label}: {clients} x {n_requests} calls')
         cpu0 = _cpu_seconds(server_pid)
         t0 = time.perf_counter()
         for c in cl:
@@ -251,53 +191,46 @@ def _ik_round(ctx, clients: int, n_requests: int, poses, qos, run_sec: int,
                 finished += 1
         elapsed = time.perf_counter() - t0
         cpu = _cpu_seconds(server_pid) - cpu0
-        time.sleep(0.5)  # late duplicates would arrive now
     finally:
         bound.stage(f'{label}: stopping the clients')
         spinner.stop()
     rtt = np.array([x for c in cl for x in c.rtt]) * 1e3
-    sent = sum(len(c.sent) for c in cl)
-    lost = sum(1 for c in cl for i in c.sent
-               if c.got[0].get(i, 0) == 0 or c.got[1].get(i, 0) == 0)
-    dup = sum(1 for c in cl for kind in (0, 1) for v in c.got[kind].values() if v > 1)
+    sent = sum(c.seq for c in cl)
     return {'clients': clients, 'requests': sent, 'answered': int(rtt.size),
             'elapsed_s': round(elapsed, 3),
             'requests_per_s': round(rtt.size / elapsed, 1) if elapsed > 0 else 0.0,
             'rtt_p50_ms': round(float(np.percentile(rtt, 50)), 3) if rtt.size else None,
             'rtt_p99_ms': round(float(np.percentile(rtt, 99)), 3) if rtt.size else None,
             'rtt_max_ms': round(float(rtt.max()), 3) if rtt.size else None,
-            'lost': int(lost), 'duplicated': int(dup),
+            'lost': int(sent - rtt.size), 'refused': sum(c.refused for c in cl),
             'server_cpu_ms_per_request': round(cpu / max(rtt.size, 1) * 1e3, 3)}
 
 
 def null_server() -> int:
     """
-    Run a 'null' ik_service: same topics, QoS and replies (fixed, no IK), one reply pair each.
+    Run a 'null' ik_service: the same compute_ik service (QoS, introspection), a fixed response.
 
-    The floor of the request/reply protocol in rclpy on this machine, for comparison.
+    The floor of an rclpy service on this machine, for comparison.
     """
     import rclpy
-    from diagnostic_msgs.msg import DiagnosticStatus
-    from geometry_msgs.msg import PoseStamped
+    from px100_control.ros.ik_services import SERVICE_QOS
+    from px100_control_msgs.srv import ComputeIK
     from rclpy.executors import ExternalShutdownException
     from rclpy.node import Node
-    from sensor_msgs.msg import JointState
-    from px100_control.ros.ik_service_node import parse_pose_stamped, REQUEST_QOS
+    from rclpy.qos import qos_profile_system_default
+    from rclpy.service_introspection import ServiceIntrospectionState
     rclpy.init()
     node = Node('ik_service_null')
-    pub_sol = node.create_publisher(JointState, '/px100/ik/solution', REQUEST_QOS)
-    pub_st = node.create_publisher(DiagnosticStatus, '/px100/ik/status', REQUEST_QOS)
-    sol = JointState(name=list(ARM), position=[0.0] * 4)
-    st = DiagnosticStatus(name='px100/ik_service', message='solved')
 
-    def on_request(raw):
-        stamp, _, _ = parse_pose_stamped(raw)
-        sol.header.stamp = stamp
-        st.hardware_id = f'{stamp.sec}.{stamp.nanosec:09d}'
-        pub_sol.publish(sol)
-        pub_st.publish(st)
-    node.create_subscription(PoseStamped, '/px100/ik/request', on_request, REQUEST_QOS,
-                             raw=True)
+    def on_call(request, response):
+        response.solution.name = list(ARM)
+        response.solution.position = [0.0] * 4
+        response.success, response.message = True, 'solved'
+        return response
+    service = node.create_service(ComputeIK, '/px100/compute_ik', on_call,
+                                  qos_profile=SERVICE_QOS)
+    service.configure_introspection(node.get_clock(), qos_profile_system_default,
+                                    ServiceIntrospectionState.CONTENTS)
     executor = make_executor()
     executor.add_node(node)
     try:
@@ -313,7 +246,6 @@ def null_server() -> int:
 def bench_ik(quick: bool, null: bool = False) -> dict:
     """Run the ik_service benchmark rounds (1 client, 8 clients); null: the null server."""
     import rclpy
-    from px100_control.ros.ik_service_node import REQUEST_QOS
     poses = _targets(500)
     if null:
         server = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--null-server'],
@@ -326,13 +258,12 @@ def bench_ik(quick: bool, null: bool = False) -> dict:
     out = {}
     name = 'null service' if null else 'ik_service'
     try:
-        run_sec = int(time.time()) % 100000 * 100
+        tag = int(time.time()) % 100000
         n1 = 1000 if quick else 5000
-        out['single_client'] = _ik_round(ctx, 1, n1, poses, REQUEST_QOS, run_sec,
-                                         server.pid, f'{name}, 1 client')
-        out['eight_clients'] = _ik_round(ctx, 8, n1 // 4 if quick else n1 // 2,
-                                         poses, REQUEST_QOS, run_sec + 10, server.pid,
-                                         f'{name}, 8 clients')
+        out['single_client'] = _ik_round(ctx, 1, n1, poses, tag, server.pid,
+                                         f'{name}, 1 client')
+        out['eight_clients'] = _ik_round(ctx, 8, n1 // 4 if quick else n1 // 2, poses,
+                                         tag + 1, server.pid, f'{name}, 8 clients')
     finally:
         ctx.try_shutdown()
         _stop(server)
@@ -342,10 +273,12 @@ def bench_ik(quick: bool, null: bool = False) -> dict:
 def bench_setpoint_jitter(quick: bool) -> dict:
     """Run one trajectory goal against a joint-state echo; return the setpoint period stats."""
     import rclpy
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from rclpy.action import ActionClient
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectoryPoint
     server = _start('px100_control.ros.trajectory_server_node')
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
@@ -369,23 +302,25 @@ def bench_setpoint_jitter(quick: bool) -> dict:
         pub_js.publish(js)
 
     pub_js = node.create_publisher(JointState, '/px100/joint_states', 10)
-    pub_goal = node.create_publisher(JointTrajectory, '/px100/trajectory/goal', 10)
+    arm = ActionClient(node, FollowJointTrajectory,
+                       '/px100/arm_controller/follow_joint_trajectory')
     node.create_subscription(JointState, '/px100/commands/joint_setpoints', on_setpoint, 100)
     node.create_timer(0.01, publish_state)
-    spinner = _Spinner(ctx, [node])
+    # rclpy 7.1's EventsExecutor does not serve action clients
+    spinner = _Spinner(ctx, [node], kind='single')
     duration = 2.0 if quick else 5.0
     try:
         bound.stage('trajectory_server: discovery, then one goal')
         deadline = time.monotonic() + 20.0
-        while pub_goal.get_subscription_count() == 0 and time.monotonic() < deadline:
+        while not arm.server_is_ready() and time.monotonic() < deadline:
             time.sleep(0.05)
         time.sleep(1.0)
-        goal = JointTrajectory()
-        goal.header.stamp = node.get_clock().now().to_msg()
-        goal.joint_names = list(ARM)
-        goal.points = [JointTrajectoryPoint(positions=[0.5, -1.0, 1.0, 0.5],
-                                            time_from_start=Duration(sec=int(duration)))]
-        pub_goal.publish(goal)
+        goal = FollowJointTrajectory.Goal()
+        goal.trajectory.joint_names = list(ARM)
+        goal.trajectory.points = [JointTrajectoryPoint(
+            positions=[0.5, -1.0, 1.0, 0.5], time_from_start=Duration(sec=int(duration)))]
+        # sent from the executor's thread (ros2/rclpy#1123)
+        spinner.executor.create_task(lambda: arm.send_goal_async(goal))
         time.sleep(duration + 1.5)
     finally:
         spinner.stop()
@@ -435,7 +370,7 @@ def main(argv=None) -> int:
         print(f"{part} {r['clients']} client(s): {r['requests_per_s']:.0f} requests/s, "
               f"round trip p50 {r['rtt_p50_ms']} ms, p99 {r['rtt_p99_ms']} ms, "
               f"max {r['rtt_max_ms']} ms; {r['requests']} sent, lost {r['lost']}, "
-              f"duplicated {r['duplicated']}; server CPU {r['server_cpu_ms_per_request']} ms "
+              f"refused {r['refused']}; server CPU {r['server_cpu_ms_per_request']} ms "
               'per request')
     t = res['trajectory_server']
     print(f'trajectory_server setpoints at 200 Hz: {t}')

@@ -302,10 +302,10 @@ IK_METHODS = ('auto', 'analytic', 'dls', 'newton')
 
 IK_SERVICE = NodeSchema('ik_service', COMMON + (
     ParamSpec('orientation_mode', 'string', 'pitch', "'pitch': position + pitch, the "
-              "unreachable roll/yaw reported in ik/status; 'strict': the whole pose or refused",
+              "unreachable roll/yaw named in the reply; 'strict': the whole pose or refused",
               choices=('pitch', 'strict')),
     ParamSpec('orientation_tolerance', 'double', 1e-3, 'pitch mode: dropped roll/yaw above '
-              'this is named in ik/status [rad]', low=0.0, above_low=True),
+              'this is named in the reply message [rad]', low=0.0, above_low=True),
     ParamSpec('method', 'string', 'auto', 'IK method: auto (closed form, iterative fallback), '
               'analytic, dls, newton', choices=IK_METHODS),
     ParamSpec('tol_position', 'double', 1e-9, 'position tolerance of a solution [m]',
@@ -317,11 +317,11 @@ IK_SERVICE = NodeSchema('ik_service', COMMON + (
     ParamSpec('nominal_pose', 'double_array', None, 'secondary-task target and seed before any '
               'joint_states [rad], one value per arm joint',
               default_doc="the robot's home pose"),
-    ParamSpec('max_path_joint_velocity', 'double', 1.0, 'ik/path_solution timing: points are '
-              'spaced so no joint moves faster than this [rad/s] (and no faster than its URDF '
+    ParamSpec('max_path_joint_velocity', 'double', 1.0, 'compute_cartesian_path timing: points '
+              'are spaced so no joint moves faster than this [rad/s] (and no faster than its URDF '
               'velocity limit)', low=0.0, above_low=True),
-    ParamSpec('min_path_point_time', 'double', 0.01, 'ik/path_solution timing: shortest time '
-              'between two points [s]', low=0.0),
+    ParamSpec('min_path_point_time', 'double', 0.01, 'compute_cartesian_path timing: shortest '
+              'time between two points [s]', low=0.0),
 ))
 
 TRAJECTORY_PROFILES = ('trapezoidal', 'minimum_jerk', 'linear_max_step')
@@ -355,8 +355,6 @@ TRAJECTORY_SERVER = NodeSchema('trajectory_server', COMMON + (
               '[rad/s^2]', low=0.0, above_low=True),
     ParamSpec('start_tolerance', 'double', 0.05, 'a first point at t = 0 must be this close to '
               'the start [rad]', low=0.0),
-    ParamSpec('status_history', 'integer', 50, 'number of recent goals kept in '
-              'trajectory/status', low=1, high=100000),
     ParamSpec('action_monitor_rate', 'double', 20.0, 'feedback rate of the '
               'arm_controller/follow_joint_trajectory and gripper_controller/gripper_cmd '
               'actions [Hz] (read at start)', low=0.1, high=1000.0, read_only=True),

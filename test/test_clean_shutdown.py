@@ -258,14 +258,16 @@ class _MoveWatcher:
     """A test-side node that sends a goal and sees the setpoints of the server streaming it."""
 
     def __init__(self, ctx, ns):
+        from control_msgs.action import FollowJointTrajectory
+        from rclpy.action import ActionClient
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
         from sensor_msgs.msg import JointState
-        from trajectory_msgs.msg import JointTrajectory
         import threading
         self.node = Node('move_watcher', namespace=ns, context=ctx)
         self.setpoints = 0
-        self.pub = self.node.create_publisher(JointTrajectory, 'trajectory/goal', 10)
+        self.action = ActionClient(self.node, FollowJointTrajectory,
+                                   'arm_controller/follow_joint_trajectory')
         self.node.create_subscription(JointState, 'commands/joint_setpoints', self._on_sp, 100)
         self.executor = SingleThreadedExecutor(context=ctx)
         self.executor.add_node(self.node)
@@ -276,13 +278,16 @@ class _MoveWatcher:
         self.setpoints += 1
 
     def send_waist_move(self, seconds):
+        """Send a FollowJointTrajectory goal (from the executor's thread: ros2/rclpy#1123)."""
         from builtin_interfaces.msg import Duration
-        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-        goal = JointTrajectory(joint_names=['waist'])
-        goal.header.stamp = self.node.get_clock().now().to_msg()
-        goal.points = [JointTrajectoryPoint(positions=[1.0], time_from_start=Duration(
+        from control_msgs.action import FollowJointTrajectory
+        from trajectory_msgs.msg import JointTrajectoryPoint
+        goal = FollowJointTrajectory.Goal()
+        goal.trajectory.joint_names = ['waist']
+        goal.trajectory.points = [JointTrajectoryPoint(positions=[1.0], time_from_start=Duration(
             sec=int(seconds)))]
-        self.pub.publish(goal)
+        if self.action.server_is_ready():
+            self.executor.create_task(lambda: self.action.send_goal_async(goal))
 
     def close(self):
         self.executor.shutdown(timeout_sec=2.0)

@@ -51,9 +51,9 @@ def test_bad_params_files_are_refused_with_the_reason():
         '/**': {'ros__parameters': {'robot_model': 'px100', 'publish_rate': 5.0}},
         '/**/sim_driver': {'ros__parameters': {'control_rate': 5.0, 'publish_clock': 'yes',
                                                'gains': {'waist': {'q': 1.0}}}},
-        '/**/ik_service': {'ros__parameters': {'method': 'magic', 'tol_position': 0.0}},
-        '/**/trajectory_server': {'ros__parameters': {'status_history': 1.5,
-                                                      'hold_after': 0.01}},
+        '/**/ik_service': {'ros__parameters': {'method': 'magic', 'tol_position': 0.0,
+                                               'max_iterations': 1.5}},
+        '/**/trajectory_server': {'ros__parameters': {'hold_after': 0.01}},
         '/**/nobody': {'ros__parameters': {'x': 1}},
         'broken': {'x': 1},
     }
@@ -64,7 +64,7 @@ def test_bad_params_files_are_refused_with_the_reason():
                  'gains are gains.<joint>.<field>',
                  'method must be one of auto, analytic, dls, newton',
                  'tol_position = 0.0 is not 0 < value',
-                 'status_history must be an integer',
+                 'max_iterations must be an integer',
                  'hold_after = 0.01 is not 0.05 <= value',
                  "no px100_control node is called 'nobody'",
                  'broken: expected exactly one key ros__parameters'):
@@ -215,15 +215,16 @@ def test_descriptors_of_a_running_node(rclpy_context):
         assert d.type == ParameterType.PARAMETER_DOUBLE
         assert d.floating_point_range[0].from_value == 0.0
         assert d.additional_constraints == '0 < value'
-        d = node.describe_parameter('status_history')
-        assert (d.integer_range[0].from_value, d.integer_range[0].to_value) == (1, 100000)
+        d = node.describe_parameter('action_monitor_rate')
+        assert (d.floating_point_range[0].from_value,
+                d.floating_point_range[0].to_value) == (0.1, 1000.0)
         assert node.describe_parameter('robot_model').read_only
         res = node.set_parameters([rclpy.parameter.Parameter('goal_tolerance', value=0.0),
-                                   rclpy.parameter.Parameter('status_history', value=0),
+                                   rclpy.parameter.Parameter('stop_deceleration', value=0.0),
                                    rclpy.parameter.Parameter('robot_model', value='wx250'),
                                    rclpy.parameter.Parameter('moving_time', value=3.0)])
         assert [r.successful for r in res] == [False, False, False, True]
-        assert 'goal_tolerance' in res[0].reason and 'status_history' in res[1].reason
+        assert 'goal_tolerance' in res[0].reason and 'stop_deceleration' in res[1].reason
     finally:
         node.destroy_node()
 

@@ -19,7 +19,10 @@ from px100_control.errors import BagError
 #: shortest wall time of one loop pass [s] (a one-message bag must not loop at 100 % CPU)
 MIN_LOOP_PERIOD_S = 0.01
 #: topics (relative to a robot namespace) that move a live arm when replayed
-COMMAND_TOPICS = ('trajectory/goal', 'commands/joint_setpoints')
+COMMAND_TOPICS = ('commands/joint_setpoints',)
+#: request topics of bags recorded before goals and IK became actions and services: no node
+#: takes them any more, so they are never re-sent
+RETIRED_REQUESTS = ('trajectory/goal', 'ik/request', 'ik/path_request')
 
 
 @dataclass(frozen=True)
@@ -149,7 +152,7 @@ def parse_remaps(items: Optional[Iterable[str]], namespace: str = '') -> Dict[st
 
 
 def command_topics(topics: Iterable[str], remaps: Mapping[str, str]) -> Dict[str, str]:
-    """Return {bag topic: namespace it is published into} of the goal / setpoint topics."""
+    """Return {bag topic: namespace it is published into} of the setpoint topics."""
     out = {}
     for topic in topics:
         published_as = remaps.get(topic, topic)
@@ -164,11 +167,15 @@ def not_replayed(topic: str, send_commands: bool) -> str:
     Return why a bag topic is never replayed ('' when it may be).
 
     Service events (the actions' goal/cancel/result ones included) record calls that were
-    made: they are never re-sent. An action's feedback and status and the Interbotix driver's
-    commands (``commands/joint_group`` ...) are re-sent only with ``send_commands``.
+    made: they are never re-sent, nor are the retired request topics of older bags
+    (``trajectory/goal``, ``ik/request``, ``ik/path_request``: no node takes them). An action's
+    feedback and status and the Interbotix driver's commands (``commands/joint_group`` ...) are
+    re-sent only with ``send_commands``.
     """
     if is_call_record(topic):
         return 'recorded service calls are never re-sent'
+    if any(topic.endswith('/' + t) or topic == t for t in RETIRED_REQUESTS):
+        return 'retired request topics are never re-sent (goals and IK are actions and services)'
     if not send_commands and action_topic(topic) is not None:
         return 'action topics are re-sent only with --send-commands'
     if not send_commands and is_xs_command(topic):

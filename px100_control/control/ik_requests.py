@@ -1,8 +1,8 @@
 """
 The ik_service's answers on plain values (no ROS): parameter checks, status texts, paths.
 
-A request's reply is an IkResult turned into a message and ``values`` ((key, text) pairs of
-``ik/status``), the same for the topic pair and the ``compute_ik`` service (:func:`ik_answer`);
+A request's reply is an IkResult turned into a message and ``values`` (the solver's figures as
+(key, text) pairs), for the ``compute_ik`` service (:func:`ik_answer`);
 a path request's reply is a joint path timed for the trajectory server. Units: positions [m],
 angles [rad], times [s], speeds [rad/s] (m/s for prismatic joints).
 """
@@ -85,7 +85,7 @@ class IkAnswer:
 def ik_answer(model, T, mode: str, seed, nominal, solver_kwargs: dict,
               orientation_tol: float) -> IkAnswer:
     """
-    Solve one request with ``solve_ik`` and word its answer as ``ik/status`` does.
+    Solve one request with ``solve_ik`` and word its answer (``compute_ik``'s message).
 
     :param T: (4, 4) target of the end effector in the base frame [m]
     :param mode: solve_ik mode ('pitch', 'full' or 'position')
@@ -122,7 +122,7 @@ def solved_message(res, mode: str, orientation_tol: float, dof: int) -> str:
 
 
 def result_values(res, mode: str) -> List[Tuple[str, str]]:
-    """Return the ``ik/status`` values of one request's IkResult."""
+    """Return the solver's figures of one request's IkResult as (key, text) pairs."""
     vals = [('mode', mode), ('method', res.method), ('iterations', str(res.iterations)),
             ('position_error', fmt(res.position_error)),
             ('orientation_error', fmt(res.orientation_error)),

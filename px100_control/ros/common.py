@@ -37,7 +37,7 @@ try:
 except ImportError:             # rclpy older than Jazzy's 7.1: make_executor falls back
     EventsExecutor = None
 
-#: latched topics (robot_description, trajectory/status)
+#: latched topics (robot_description, world/markers)
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                          reliability=ReliabilityPolicy.RELIABLE)
 

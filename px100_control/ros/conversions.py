@@ -1,20 +1,16 @@
 """
 Message <-> numpy conversions shared by every node and the client.
 
-Poses are (4, 4) transforms in meters; stamps identify requests and goals (the id protocol of
-docs/ros_interfaces.md): ``stamp_id`` is ``'sec.nanosec'`` and ``stamp_uuid`` a
-deterministic UUID derived from the stamp (for action_msgs GoalInfo).
+Poses are (4, 4) transforms in meters; ``stamp_id`` is a stamp as text ``'sec.nanosec'`` (how
+logs name a request) and ``stamp_key`` as a sortable (sec, nanosec) tuple.
 """
 from typing import Iterable, Tuple
-import uuid
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Pose
 import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.rotations import matrix_to_quaternion, quaternion_to_matrix
-
-_UUID_NAMESPACE = uuid.UUID('5b1f3c52-6a0e-4f57-9d2e-7c8a4a1e1000')
 
 
 def pose_to_matrix(pose: Pose, *, allow_zero_quaternion: bool = False) -> Tuple[np.ndarray, bool]:
@@ -79,11 +75,6 @@ def stamp_id(stamp: Time) -> str:
 def stamp_key(stamp: Time) -> Tuple[int, int]:
     """Return (sec, nanosec) of a stamp: a hashable goal/request key."""
     return int(stamp.sec), int(stamp.nanosec)
-
-
-def stamp_uuid(stamp: Time) -> bytes:
-    """Return the 16-byte UUID derived from a stamp (uuid5 of its id text)."""
-    return uuid.uuid5(_UUID_NAMESPACE, stamp_id(stamp)).bytes
 
 
 def time_from_seconds(t: float) -> Time:

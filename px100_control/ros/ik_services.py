@@ -3,17 +3,23 @@ The ik_service's ROS services: ``compute_ik`` and ``compute_cartesian_path``.
 
 Services (relative to ``/<robot_name>``; px100_control_msgs, ``interfaces/``):
 
-- ``compute_ik`` (ComputeIK): one target pose, the same checks, solver and wording as
-  ``ik/request`` (:func:`px100_control.control.ik_requests.ik_answer`). ``target.header.frame_id``
+- ``compute_ik`` (ComputeIK): one target pose, checked, solved and worded by
+  :func:`px100_control.control.ik_requests.ik_answer`. ``target.header.frame_id``
   empty or the base frame; an all-zero quaternion means position-only IK; ``orientation_mode``
   'pitch', 'strict' or '' (the node's parameter); ``seed`` [rad] empty (the measured state) or
   one finite value per arm joint. The response's ``solution`` carries the arm joint names, the
   request's stamp and the solution closest to the seed (no position when ``success`` is false);
-  ``message`` is 'solved' or why not, as ``ik/status`` words it.
-- ``compute_cartesian_path`` (ComputeCartesianPath): as ``ik/path_request``; ``trajectory``
-  (stamp zero: start on receipt) holds the points solved before a failing waypoint.
+  ``message`` is 'solved' or why not.
+- ``compute_cartesian_path`` (ComputeCartesianPath): one point per waypoint, each seeded by the
+  previous one (no branch jumps), ``time_from_start`` from the current joint state so no joint
+  exceeds ``max_path_joint_velocity`` nor its URDF velocity limit, points at least
+  ``min_path_point_time`` apart (the trajectory can be sent as a FollowJointTrajectory goal as
+  is); ``trajectory`` (stamp zero: start on receipt) holds the points solved before a failing
+  waypoint, ``message`` says which waypoint failed and why.
 
 Bad input returns ``success`` false with the reason; nothing raises into the executor. Both
+services keep up to ``SERVICE_QOS.depth`` requests queued (the default 10 drops calls when
+many clients fire at once; a client firing bursts needs as deep a QoS of its own). Both
 services publish introspection events (``<service>/_service_event``, contents included) so a
 recorder sees every request and reply.
 """
@@ -23,9 +29,13 @@ from px100_control.errors import InvalidInputError
 from px100_control.ros.common import robot_topic
 from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
 from rclpy.duration import Duration
-from rclpy.qos import qos_profile_system_default
+from rclpy.qos import qos_profile_services_default, qos_profile_system_default, QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
 from trajectory_msgs.msg import JointTrajectoryPoint
+
+#: the services' QoS: reliable and deep, so bursts from many clients lose no request
+SERVICE_QOS = QoSProfile(depth=1000, reliability=qos_profile_services_default.reliability,
+                         durability=qos_profile_services_default.durability)
 
 
 def pose_values(pose) -> tuple:
@@ -38,17 +48,18 @@ class IkServices:
     """
     Serve ``compute_ik`` and ``compute_cartesian_path`` for an IkServiceNode.
 
-    The node provides what its topic form uses: ``model``, ``_names``, ``_mode``, ``_nominal``,
+    The node provides ``model``, ``_names``, ``_mode``, ``_nominal``,
     ``_kwargs``, ``_orientation_tol``, ``_seed()``, ``_target(frame, values)`` and its path
     parameters.
     """
 
     def __init__(self, node):
         self._node = node
-        self.ik = node.create_service(ComputeIK, robot_topic(node, 'compute_ik'), self._on_ik)
+        self.ik = node.create_service(ComputeIK, robot_topic(node, 'compute_ik'), self._on_ik,
+                                      qos_profile=SERVICE_QOS)
         self.path = node.create_service(ComputeCartesianPath,
                                         robot_topic(node, 'compute_cartesian_path'),
-                                        self._on_path)
+                                        self._on_path, qos_profile=SERVICE_QOS)
         for service in (self.ik, self.path):
             service.configure_introspection(node.get_clock(), qos_profile_system_default,
                                             ServiceIntrospectionState.CONTENTS)

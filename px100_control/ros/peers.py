@@ -1,13 +1,14 @@
 """
-Who else is in the robot's namespace: a second driver or trajectory_server, found in the graph.
+Who else is in the robot's namespace: a second driver or trajectory server, found in the graph.
 
 Two ``sim_driver`` (or a real driver beside one) in one namespace publish competing
-``joint_states`` and command the same joints; two ``trajectory_server`` execute every goal
-twice. Both show up as tracking aborts, so the nodes and the client look for them by name:
+``joint_states`` and command the same joints; two trajectory servers both serve the goals of
+their action. Both show up as tracking aborts, so the nodes and the client look for them by name:
 
 - drivers: the nodes publishing ``<ns>/joint_states`` (a ``replayer`` is named separately);
-- trajectory servers: the nodes subscribing ``<ns>/trajectory/goal`` other than recorders and
-  viewers (which only show the goals).
+- trajectory servers: the nodes serving the action ``<ns>/arm_controller/follow_joint_trajectory``
+  (publishing its ``_action/status``; the trajectory_server serves it from its helper node
+  ``trajectory_actions``, which the graph names).
 
 Names are ``/<namespace>/<node>`` as the graph reports them; two nodes of the same name count
 twice (one endpoint each).
@@ -16,6 +17,8 @@ from typing import Dict, List
 
 #: node names that subscribe or publish the contract's topics without being a driver / server
 PASSIVE_NODES = ('recorder', 'replayer', 'viewer')
+#: the topic every server of the arm's FollowJointTrajectory action publishes (relative to ns)
+ARM_ACTION_STATUS = 'arm_controller/follow_joint_trajectory/_action/status'
 
 
 #: what the graph reports for an endpoint whose node is not discovered yet
@@ -57,11 +60,8 @@ def live_peers(node, ns: str) -> Dict[str, List[str]]:
             replayers.append(name)
         elif not _is_passive(info.node_name):
             drivers.append(name)  # two nodes may share one name: count endpoints
-    servers = []
-    for info in node.get_subscriptions_info_by_topic(prefix + 'trajectory/goal'):
-        name = _full(info)
-        if not _is_passive(info.node_name):
-            servers.append(name)
+    servers = [_full(info)
+               for info in node.get_publishers_info_by_topic(prefix + ARM_ACTION_STATUS)]
     return {'drivers': sorted(drivers), 'trajectory_servers': sorted(servers),
             'replayers': sorted(set(replayers))}
 
@@ -70,7 +70,8 @@ def duplicates_message(peers: Dict[str, List[str]], ns: str) -> str:
     """Return a sentence naming a second driver / trajectory_server under ``ns`` ('' if none)."""
     parts = []
     for key, what in (('drivers', 'drivers publish joint_states'),
-                      ('trajectory_servers', 'trajectory servers take trajectory/goal')):
+                      ('trajectory_servers',
+                       'nodes serve arm_controller/follow_joint_trajectory')):
         names = peers.get(key, [])
         if len(names) > 1:
             shown = [n if names.count(n) == 1 else f'{n} (x{names.count(n)}, same name)'

@@ -1,9 +1,9 @@
 """
-Replay safety: a bag's goals and setpoints are not re-sent to a live arm.
+Replay safety: a bag's setpoints are not re-sent to a live arm.
 
-When a live driver or trajectory_server runs in a namespace the bag's ``trajectory/goal`` or
-``commands/joint_setpoints`` are replayed into (:mod:`px100_control.ros.peers`), those topics
-are withheld, with a warning naming the live nodes. The graph is watched up to LIVE_CHECK_S
+When a live driver or trajectory server runs in a namespace the bag's
+``commands/joint_setpoints`` are replayed into (:mod:`px100_control.ros.peers`), they are
+withheld, with a warning naming the live nodes. The graph is watched up to LIVE_CHECK_S
 before the replay (the wait ends as soon as a live node is seen and named; a name still
 unknown is waited for up to NAME_WAIT_S more) and looked at again, at most
 every LIVE_RECHECK_S, while commands are replayed: discovery can outlast the first look on a

@@ -14,14 +14,15 @@ installed here (e.g. ``/tf``'s tf2_msgs) are skipped with a warning unless asked
 ``--topics`` (then it is an error). A missing, empty, truncated or corrupt bag, an unknown
 topic or type: one clear error line, exit status 1.
 
-Safety: when a live driver or trajectory_server runs in a namespace the bag replays into (see
+Safety: when a live driver or trajectory server runs in a namespace the bag replays into (see
 :mod:`px100_control.ros.peers`), the replayer warns, naming them, and by default does not
-re-send the bag's goals (``trajectory/goal``) and setpoints (``commands/joint_setpoints``):
-they would move the live arm again. ``--send-commands`` (``send_commands=True``) sends them
-anyway. Replayed ``joint_states`` beside a live driver are sent, with a warning. Recorded
-service calls (``<service>/_service_event``, the actions' goal/cancel/result events included)
-are never re-sent; an action's feedback and status and the Interbotix commands
-(``commands/joint_group``, ``joint_single``, ``joint_trajectory``) only with
+re-send the bag's setpoints (``commands/joint_setpoints``): they would move the live arm again.
+``--send-commands`` (``send_commands=True``) sends them anyway. Replayed ``joint_states``
+beside a live driver are sent, with a warning. Recorded service calls
+(``<service>/_service_event``, the actions' goal/cancel/result events included) and the
+retired request topics of older bags (``trajectory/goal``, ``ik/request``,
+``ik/path_request``) are never re-sent; an action's feedback and status and the Interbotix
+commands (``commands/joint_group``, ``joint_single``, ``joint_trajectory``) only with
 ``--send-commands`` (:func:`px100_control.bag.replay.not_replayed`).
 
 Python: ``ReplayerNode(bag, rate=..., topics=..., remap=...)``, then ``start()``; ``done`` is

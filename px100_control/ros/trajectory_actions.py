@@ -2,8 +2,7 @@
 The trajectory server's ROS 2 actions, named as ros2_control's controllers name them.
 
 - ``arm_controller/follow_joint_trajectory`` (control_msgs/action/FollowJointTrajectory),
-  served by the trajectory server's goal executor (one engine: an action goal and a
-  ``trajectory/goal`` preempt each other);
+  served by the trajectory server's goal executor (a new goal preempts the running one);
 - ``gripper_controller/gripper_cmd`` (control_msgs/action/GripperCommand), for robots with a
   gripper (:mod:`px100_control.control.gripper_action`: position = the left finger [m]).
 

@@ -1,39 +1,30 @@
 """
-trajectory_server: joint trajectory execution, as ROS 2 actions and action-style topics.
+trajectory_server: joint trajectory execution, as ROS 2 actions.
 
 Names are those of docs/ros_interfaces.md, in the node's namespace. This node is wiring: it
-declares the parameters, turns messages into the goal executor's inputs
+declares the parameters, feeds the goal executor
 (:mod:`px100_control.control.goal_executor`: planning, sampling, hold/resume, verdicts, the
 watchdog) and publishes what it decides; the actions ``arm_controller/follow_joint_trajectory``
-and ``gripper_controller/gripper_cmd`` are :mod:`px100_control.ros.trajectory_actions`'.
-
-A goal is a trajectory_msgs/JointTrajectory on ``trajectory/goal``, its ``header.stamp`` its id;
-names and array lengths are checked on the serialized goal before it is deserialized (a goal of
-800 MB of wrongly sized arrays is refused in tens of ms); re-sending the running goal's id is
-ignored (reported on /diagnostics). Statuses go to ``trajectory/status`` and /diagnostics,
-setpoints at ``rate`` to ``commands/joint_setpoints`` and ``trajectory/feedback``. The goal
-clock is the node clock (``use_sim_time`` honoured); state freshness and the watchdog use the
-steady clock; a ``joint_states`` read late because this node stalled counts from its stamp.
+and ``gripper_controller/gripper_cmd`` (:mod:`px100_control.ros.trajectory_actions`) bring
+the goals. A goal's outcome goes to its action result and /diagnostics, setpoints at ``rate`` to
+``commands/joint_setpoints`` and ``trajectory/feedback``. The goal clock is the node clock
+(``use_sim_time`` honoured); state freshness and the watchdog use the steady clock; a
+``joint_states`` read late because this node stalled counts from its stamp.
 """
 from dataclasses import fields
 import threading
 import time
 from typing import Optional
 
-from action_msgs.msg import GoalStatus, GoalStatusArray
-from action_msgs.srv import CancelGoal
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from action_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray
 from px100_control.control.goal_executor import Goal, GoalExecutor, Outcome, Settings
 from px100_control.control.goal_executor import settings_error
 from px100_control.errors import InvalidInputError
 from px100_control.parameters import TRAJECTORY_SERVER
-from px100_control.ros import cdr
 from px100_control.ros.common import (declare_robot_parameters, robot_name, robot_node_kwargs,
                                       robot_topic, spin_node)
-from px100_control.ros.conversions import stamp_id, stamp_key
-from px100_control.ros.goal_status import (cancel_matches, DIAG_LEVEL, diagnostic, goal_request,
-                                           shape_error, STATUS_CODES, STATUS_NAMES, StatusBook,
-                                           uuid_bytes)
+from px100_control.ros.goal_status import DIAG_LEVEL, diagnostic, STATUS_CODES, STATUS_NAMES
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
 from px100_control.ros.trajectory_actions import TrajectoryActions
@@ -42,18 +33,10 @@ from px100_control.tools.stall import StallMeter
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
-                       ReliabilityPolicy)
-from rclpy.serialization import deserialize_message
+from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
-from trajectory_msgs.msg import JointTrajectory
 
 NODE_NAME = 'trajectory_server'
-
-#: trajectory/status: transient local like common.LATCHED_QOS, deeper so that live readers see
-#: every transition (ACCEPTED and EXECUTING are published back to back)
-STATUS_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                        reliability=ReliabilityPolicy.RELIABLE)
 
 #: the stale-state watchdog's period [s]; a watchdog check this much later than the previous one
 #: means the node was not scheduled (logged with what ran longest meanwhile)
@@ -64,7 +47,7 @@ SETTINGS = [f.name for f in fields(Settings)]
 
 
 class TrajectoryServerNode(Node):
-    """Execute joint trajectories action-style: goal topic, status, cancel service, setpoints."""
+    """Execute the actions' joint trajectories: setpoints, feedback, diagnostics."""
 
     def __init__(self, **node_kwargs):
         super().__init__(NODE_NAME, **robot_node_kwargs(NODE_NAME, node_kwargs))
@@ -93,32 +76,21 @@ class TrajectoryServerNode(Node):
         # late watchdog checks (the node not scheduled, a publish blocked): logged with their cause
         self._stalls = StallMeter(WATCHDOG_PERIOD, STALL_WARN)
         self._last_stall = None   # (steady ns when noticed, Stall)
-        self._book = StatusBook()
 
         # deep enough that a reader stalled for a moment loses no setpoint (200 Hz)
         self._pub_setpoint = self.create_publisher(
             JointState, robot_topic(self, 'commands/joint_setpoints'), 100)
         self._pub_feedback = self.create_publisher(
             JointState, robot_topic(self, 'trajectory/feedback'), 100)
-        self._pub_status = self.create_publisher(
-            GoalStatusArray, robot_topic(self, 'trajectory/status'), STATUS_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.create_subscription(JointState, robot_topic(self, 'joint_states'),
                                  self._on_joint_states, qos_profile_sensor_data)
-        # goals arrive serialized: names and array lengths are checked on the bytes, so a goal
-        # with wrong names or huge arrays is refused without deserializing it (measured: 16-30
-        # ms in the server for 8-800 MB goals; converting them first took seconds)
-        self._pre_read = cdr.trajectory_shape_matches_rclpy()
-        self.create_subscription(JointTrajectory, robot_topic(self, 'trajectory/goal'),
-                                 self._on_goal_serialized, QoSProfile(depth=10), raw=True)
-        self.create_service(CancelGoal, robot_topic(self, 'trajectory/cancel'), self._on_cancel)
         self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
         self._watchdog = self.create_timer(WATCHDOG_PERIOD, self._on_watchdog,
                                            clock=self._steady)
         self._duplicates = ''
         self.create_timer(2.0, self._check_peers, clock=self._steady)
         self._setpoint = JointState(name=list(self._names))
-        self._publish_status()
         self._actions = TrajectoryActions(self)
         self.get_logger().info(
             f'trajectory_server ready: {self.model.name} joints {self._names}, '
@@ -163,44 +135,6 @@ class TrajectoryServerNode(Node):
             elif not self.first_state.is_set() and self._engine.has_state():
                 self.first_state.set()
 
-    def _on_goal_serialized(self, data: bytes) -> None:
-        """Refuse a goal with wrong names or array lengths on its bytes; else deserialize it."""
-        t0 = time.monotonic_ns()
-        try:
-            self._take_goal(data)
-        finally:
-            self._stalls.note(f'a goal of {len(data)} bytes', time.monotonic_ns() - t0)
-
-    def _take_goal(self, data: bytes) -> None:
-        reason = shape_error(data, self._names) if self._pre_read else None
-        if reason is not None:
-            stamp, reason = reason
-            return self._on_goal(None, stamp, invalid=reason)
-        try:
-            msg = deserialize_message(data, JointTrajectory)
-        except Exception as exc:  # noqa: B902 - bytes from a raw publisher may be anything
-            self.get_logger().error(f'goal of {len(data)} bytes ignored: not a '
-                                    f'JointTrajectory ({exc})')
-            return
-        self._on_goal(msg, msg.header.stamp)
-
-    def _on_goal(self, msg: Optional[JointTrajectory], stamp, invalid: str = '') -> None:
-        """Start a goal (preempting the running one), or refuse it (``invalid``: why)."""
-        key = stamp_key(stamp)
-        with self._lock:
-            if self._engine.is_running(key):
-                return self._diagnose(key, DiagnosticStatus.ERROR, f'duplicate goal id '
-                                      f'{stamp_id(stamp)} ignored: that goal is still running',
-                                      'IGNORED')
-            if invalid:
-                return self._reject(stamp, invalid)
-            try:
-                self.start_goal(goal_request(msg), self._new_status(stamp))
-            except (InvalidInputError, ValueError, TypeError) as exc:
-                return self._reject(stamp, str(exc))
-            except Exception as exc:  # noqa: B902 - a bad goal must never stop the node
-                return self._reject(stamp, f'internal error planning the goal: {exc!r}')
-
     def start_goal(self, request, tag) -> None:
         """Start a goal (under the lock); raise InvalidInputError when it is invalid."""
         goal, old = self._engine.start(request, self.get_clock().now().nanoseconds,
@@ -208,30 +142,12 @@ class TrajectoryServerNode(Node):
         self._started(goal, old)
 
     def _started(self, goal: Goal, old: Optional[Goal]) -> None:
-        """Publish a started goal (ACCEPTED, EXECUTING) after the one it preempted."""
+        """Log a started goal after ending the one it preempted."""
         if old is not None:
             self._finish(old, GoalStatus.STATUS_CANCELED, f'preempted by goal {goal.label}')
-        goal.tag.status = GoalStatus.STATUS_ACCEPTED
-        self._publish_status()
-        goal.tag.status = GoalStatus.STATUS_EXECUTING
-        self._publish_status()
         self.get_logger().info(f'goal {goal.label} accepted: {goal.info["kind"]}, '
                                f'{goal.traj.duration:.3f} s')
         self._on_tick()
-
-    def _on_cancel(self, request, response):
-        """Cancel per action_msgs/srv/CancelGoal (by UUID, by stamp, or all when zero)."""
-        uuid = uuid_bytes(request.goal_info.goal_id.uuid)
-        stamp = stamp_key(request.goal_info.stamp)
-        with self._lock:
-            g = self._engine.active
-            if g is None or not cancel_matches(g.tag, g.key, uuid, stamp):
-                response.return_code = self._book.cancel_refusal(uuid, stamp)
-                return response
-            self.cancel_active()
-            response.goals_canceling = [g.tag.goal_info]
-            response.return_code = CancelGoal.Response.ERROR_NONE
-            return response
 
     def cancel_active(self) -> None:
         """Decelerate the running goal to rest (CANCELING), once; under the lock."""
@@ -239,7 +155,6 @@ class TrajectoryServerNode(Node):
         if g.phase != 'canceling':
             self._engine.cancel(self.get_clock().now().nanoseconds)
             g.tag.status = GoalStatus.STATUS_CANCELING
-            self._publish_status()
             self.get_logger().info(f'goal {g.label} canceling: stopping in '
                                    f'{g.traj.duration:.3f} s')
 
@@ -294,27 +209,12 @@ class TrajectoryServerNode(Node):
         self._stalls.note('publishing a setpoint', t1 - t0)
         self._stalls.note('publishing feedback', time.monotonic_ns() - t1)
 
-    # ------------------------------------------------------------------ status
-    def _new_status(self, stamp) -> GoalStatus:
-        return self._book.new(stamp, int(self.get_parameter('status_history').value))
-
-    def _publish_status(self) -> None:
-        self._pub_status.publish(self._book.message())
-
-    def _reject(self, stamp, reason: str) -> None:
-        self._new_status(stamp).status = GoalStatus.STATUS_ABORTED
-        self._publish_status()
-        self._diagnose(stamp_key(stamp), DiagnosticStatus.ERROR, f'invalid goal: {reason}',
-                       'ABORTED')
-        self.get_logger().error(f'goal {stamp_id(stamp)} ABORTED (invalid, nothing sent): '
-                                f'{reason}')
-
+    # ------------------------------------------------------------------ outcome
     def _finish(self, goal: Goal, status: int, reason: str, code: str = '') -> None:
         name = STATUS_NAMES[status]
         self._actions.finished(goal, name, reason, code)   # an action goal's result
         goal.tag.status = status
-        self._publish_status()
-        self._diagnose(getattr(goal.tag, 'diag_id', goal.key), DIAG_LEVEL[status], reason, name)
+        self._diagnose(goal.tag.diag_id, DIAG_LEVEL[status], reason, name)
         self._log({GoalStatus.STATUS_ABORTED: 'error', GoalStatus.STATUS_CANCELED: 'warning'}
                   .get(status, 'info'), f'goal {goal.label} {name}: {reason}')
 
@@ -327,7 +227,7 @@ class TrajectoryServerNode(Node):
         else:
             self.get_logger().info(text)
 
-    def _diagnose(self, key: tuple, level, message: str, status: str) -> None:
+    def _diagnose(self, key: str, level, message: str, status: str) -> None:
         self._pub_diag.publish(diagnostic(self.get_clock().now().to_msg(), self._diag_name, key,
                                           level, message, status))
 
@@ -342,7 +242,7 @@ def main(args=None):
     return spin_node(lambda options: TrajectoryServerNode(), args, schema=TRAJECTORY_SERVER,
                      description='Joint trajectory server of px100_control (actions '
                                  'arm_controller/follow_joint_trajectory, gripper_controller/'
-                                 'gripper_cmd; topics trajectory/goal, trajectory/status).')
+                                 'gripper_cmd).')
 
 
 if __name__ == '__main__':

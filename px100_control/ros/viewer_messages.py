@@ -1,9 +1,9 @@
 """
 The messages the viewer's controls send: a one-point trajectory goal and an IK request.
 
-Built from plain values (:mod:`px100_control.viewer.controls` decides them); the node stamps
-each with its goal/request id and publishes it. Positions [rad or m], times [s], poses [m] in
-``frame``.
+Built from plain values (:mod:`px100_control.viewer.controls` decides them); the viewer sends
+them as a FollowJointTrajectory goal and a compute_ik request. Positions [rad or m], times [s],
+poses [m] in ``frame``.
 """
 from typing import Optional, Sequence
 
@@ -14,7 +14,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 def goal_message(stamp: Time, frame: str, names: Sequence[str], target: Sequence[float],
                  seconds: float) -> JointTrajectory:
-    """Return a trajectory/goal with one point: target (per name) reached after seconds."""
+    """Return a JointTrajectory with one point: target (per name) reached after seconds."""
     msg = JointTrajectory()
     msg.header.stamp = stamp
     msg.header.frame_id = frame
@@ -28,7 +28,7 @@ def goal_message(stamp: Time, frame: str, names: Sequence[str], target: Sequence
 
 def ik_request_message(stamp: Time, frame: str, position: Sequence[float],
                        quat_xyzw: Optional[Sequence[float]] = None) -> PoseStamped:
-    """Return an ik/request for position xyz; quat_xyzw None = orientation free (all zero)."""
+    """Return a PoseStamped IK target at xyz; quat_xyzw None = orientation free (all zero)."""
     msg = PoseStamped()
     msg.header.stamp = stamp
     msg.header.frame_id = frame

@@ -6,26 +6,23 @@ too). Layout: a 4-byte encapsulation header (CDR_LE), then the fields, each alig
 counted from the end of that header; strings are a uint32 length (with the NUL) and the bytes;
 sequences a uint32 count and the elements.
 
-- ``JointStateWriter`` / ``diagnostic_status``: the IK service's replies (building the messages
-  and letting rclpy serialize them costs about 45 us per request, writing the bytes about 5 us)
-  and the sim_driver's joint_states; ``clock``: its /clock;
+- ``JointStateWriter``: the sim_driver's joint_states (building the message and letting rclpy
+  serialize it costs about 45 us, writing the bytes about 5 us); ``clock``: its /clock;
 - ``PatchedTemplate`` / ``unique_offset``: a message serialized once whose stamps and poses are
   rewritten in place (the sim_driver's world/markers).
-- ``read_pose_stamped``: a geometry_msgs/PoseStamped request read in place.
-- ``trajectory_shape``: a JointTrajectory's stamp, joint names and array lengths without its
-  values (the trajectory server refuses a malformed goal before deserializing it).
 - ``tf_message``: tf2_msgs/TFMessage bytes for bags (no tf2_msgs needed).
 - ``string_message``: std_msgs/String bytes (the robot_description a recorder adds to a bag).
 
-``ros/cdr.py`` checks the writers and readers against rclpy's serializer of the running
+``ros/cdr.py`` checks the writers against rclpy's serializer of the running
 middleware at start; the nodes use them only when they agree. ``tf_message`` is the exception:
 rclpy has no TFMessage type without tf2_msgs, which is not a dependency; its bytes go only into
 bags, and test/bag/test_bag_tf.py checks them against rosbags' and mcap_ros2's serializers.
 """
 import struct
-from typing import Iterable, Optional, Sequence, Tuple
+from typing import Optional, Sequence
 
 ENCAPSULATION = b'\x00\x01\x00\x00'      # CDR, little endian, no options
+_POSE = struct.Struct('<7d')           # position x y z, orientation x y z w
 _U32 = struct.Struct('<I')
 _I32_U32 = struct.Struct('<iI')
 
@@ -121,109 +118,6 @@ def unique_offset(data: bytes, pattern: bytes) -> Optional[int]:
     if first < 0 or data.find(pattern, first + 1) >= 0:
         return None
     return first
-
-
-def diagnostic_status(level, name: str, message: str, hardware_id: str,
-                      values: Iterable[Tuple[str, str]]) -> bytes:
-    """Return the serialized diagnostic_msgs/DiagnosticStatus (level: int or 1 byte)."""
-    if isinstance(level, (bytes, bytearray)):
-        level = level[0]
-    parts = [ENCAPSULATION, bytes((level & 0xFF,))]
-    off = 1
-    for text in (name, message, hardware_id):
-        piece = cdr_string(text, off)
-        parts.append(piece)
-        off += len(piece)
-    values = list(values)
-    parts.append(b'\x00' * _pad(off, 4) + _U32.pack(len(values)))
-    off += _pad(off, 4) + 4
-    for key, value in values:
-        for text in (key, value):
-            piece = cdr_string(text, off)
-            parts.append(piece)
-            off += len(piece)
-    return b''.join(parts)
-
-
-def _read_string(data, off: int) -> Tuple[str, int]:
-    """Return (text up to the first NUL, offset after it) of a CDR string at payload ``off``."""
-    off += _pad(off, 4)
-    (size,) = _U32.unpack_from(data, 4 + off)
-    end = off + 4 + size
-    if size == 0 or 4 + end > len(data):
-        raise ValueError(f'string of {size} bytes at offset {off} runs past the message')
-    raw = bytes(data[4 + off + 4:4 + end - 1]).split(b'\x00', 1)[0]
-    return raw.decode('utf-8', 'replace'), end
-
-
-def trajectory_shape(data) -> Tuple[Tuple[int, int], list, list]:
-    """
-    Read a serialized trajectory_msgs/JointTrajectory without reading its values.
-
-    Returns ((stamp sec, nanosec), joint_names, lengths) where lengths has one
-    (positions, velocities, accelerations, effort) count tuple per point: enough to refuse a
-    goal with wrong names or wrongly sized arrays before paying for its deserialization.
-
-    :raises ValueError: not little-endian CDR, or the bytes end before the fields do
-    """
-    if bytes(data[:2]) != ENCAPSULATION[:2]:
-        raise ValueError('not little-endian CDR')
-    try:
-        stamp = _I32_U32.unpack_from(data, 4)
-        _, off = _read_string(data, 8)                        # header.frame_id
-        off += _pad(off, 4)
-        (count,) = _U32.unpack_from(data, 4 + off)
-        off += 4
-        if count > len(data):                                 # each name takes >= 5 bytes
-            raise ValueError(f'{count} joint names in {len(data)} bytes')
-        names = []
-        for _ in range(count):
-            name, off = _read_string(data, off)
-            names.append(name)
-        off += _pad(off, 4)
-        (count,) = _U32.unpack_from(data, 4 + off)
-        off += 4
-        if count > len(data):
-            raise ValueError(f'{count} points in {len(data)} bytes')
-        lengths = []
-        for _ in range(count):
-            sizes = []
-            for _field in range(4):   # positions, velocities, accelerations, effort: float64[]
-                off += _pad(off, 4)
-                (n,) = _U32.unpack_from(data, 4 + off)
-                off += 4
-                if n:
-                    off += _pad(off, 8) + 8 * n
-                sizes.append(n)
-            off += _pad(off, 4) + 8                           # time_from_start
-            lengths.append(tuple(sizes))
-    except struct.error as exc:
-        raise ValueError(f'message ends early: {exc}') from None
-    if 4 + off > len(data):
-        raise ValueError(f'message of {len(data)} bytes ends before its last point')
-    return stamp, names, lengths
-
-
-_POSE_HEAD = struct.Struct('<iII')     # header.stamp.sec, .nanosec, frame_id length (with NUL)
-_POSE = struct.Struct('<7d')           # position x y z, orientation x y z w
-
-
-def read_pose_stamped(raw) -> Optional[Tuple[int, int, str, tuple]]:
-    """
-    Return (sec, nanosec, frame_id, (x, y, z, qx, qy, qz, qw)) of a serialized PoseStamped.
-
-    Little-endian CDR is read in place (header.stamp, frame_id, then the 7 doubles aligned to
-    8); None for anything else (the caller deserializes it the slow way).
-    """
-    if bytes(raw[:2]) != ENCAPSULATION[:2] or len(raw) < 16:
-        return None
-    sec, nanosec, n = _POSE_HEAD.unpack_from(raw, 4)
-    off = 12 + n                      # offsets count from the end of the 4-byte header
-    off += _pad(off, 8)
-    if n < 1 or 4 + off + 56 > len(raw):
-        return None
-    frame = bytes(raw[16:15 + n]).decode('utf-8', 'replace')
-    return sec, nanosec, frame, _POSE.unpack_from(raw, 4 + off)
 
 
 def tf_message(entries, sec: int, nanosec: int) -> bytes:

@@ -15,7 +15,6 @@ class FakeRobot(Node):
 
     def __init__(self, name='fake_robot', **kwargs):
         super().__init__(name, **kwargs)
-        from action_msgs.msg import GoalStatusArray
         from diagnostic_msgs.msg import DiagnosticArray
         from sensor_msgs.msg import JointState
         from std_msgs.msg import String
@@ -23,10 +22,10 @@ class FakeRobot(Node):
         self.js = self.create_publisher(JointState, '/px100/joint_states', 10)
         self.sp = self.create_publisher(JointState, '/px100/commands/joint_setpoints', 10)
         self.desc = self.create_publisher(String, '/px100/robot_description', LATCHED)
-        self.status = self.create_publisher(GoalStatusArray, '/px100/trajectory/status', LATCHED)
+        self.held = self.create_publisher(String, '/px100/world/held_object', LATCHED)
         self.diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.other = self.create_publisher(String, '/elsewhere/chatter', 10)
-        self.String, self.GoalStatusArray = String, GoalStatusArray
+        self.String = String
 
     def joint_state(self, seq: int):
         """Return a JointState whose waist position is the sequence number."""

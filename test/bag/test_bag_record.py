@@ -62,7 +62,7 @@ def test_record_robot_topics_then_sigint(rclpy_context, spin_node, node_process,
     fake = spin_node(FakeRobot(context=rclpy_context))
     urdf = prefix_urdf(load_robot('px100').urdf_xml, 'px100')
     fake.desc.publish(fake.String(data=urdf))
-    fake.status.publish(fake.GoalStatusArray())
+    fake.held.publish(fake.String(data='red_cube'))
     bag_dir = str(tmp_path / 'all')
     proc = _start_recording(node_process, fake, bag_dir, '--robot-only', '--tf-rate', '1000')
     assert fake.wait_for_subscribers([fake.sp, fake.diag])
@@ -77,7 +77,7 @@ def test_record_robot_topics_then_sigint(rclpy_context, spin_node, node_process,
     msgs, types, qos = _read_bag(bag_dir)
     assert [m.position[0] for m in msgs['/px100/joint_states']] == list(range(300))
     assert msgs['/px100/robot_description'][0].data == urdf
-    assert len(msgs['/px100/trajectory/status']) == 1
+    assert [m.data for m in msgs['/px100/world/held_object']] == ['red_cube']
     assert msgs['/px100/commands/joint_setpoints'][0].position.tolist() == [0.25]
     assert msgs['/diagnostics'][0].status[0].message == 'hello'
     assert '/elsewhere/chatter' not in types

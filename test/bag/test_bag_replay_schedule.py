@@ -1,9 +1,9 @@
 """The pure replay schedule: due times at a rate, from an offset, in loops; remaps; texts."""
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from px100_control.bag.replay import (command_topics, MIN_LOOP_PERIOD_S, parse_remaps, plan,
-                                      progress_text, ReplaySchedule, resolve_topic,
-                                      withheld_warning)
+from px100_control.bag.replay import (command_topics, MIN_LOOP_PERIOD_S, not_replayed,
+                                      parse_remaps, plan, progress_text, ReplaySchedule,
+                                      resolve_topic, withheld_warning)
 from px100_control.errors import BagError
 import pytest
 
@@ -93,25 +93,32 @@ def test_topic_names_and_remaps():
 
 
 def test_command_topics_follow_remaps():
-    """Goals and setpoints are commands in the namespace they are published into."""
+    """Setpoints are commands in the namespace they are published into."""
     topics = ['/px100/trajectory/goal', '/px100/joint_states', '/px100/commands/joint_setpoints',
-              '/trajectory/goal']
-    assert command_topics(topics, {}) == {'/px100/trajectory/goal': '/px100',
-                                          '/px100/commands/joint_setpoints': '/px100',
-                                          '/trajectory/goal': '/'}
-    assert command_topics(['/px100/trajectory/goal'],
-                          {'/px100/trajectory/goal': '/arm2/trajectory/goal'}) == {
-        '/px100/trajectory/goal': '/arm2'}
-    assert command_topics(['/px100/trajectory/goal'],
-                          {'/px100/trajectory/goal': '/px100/other'}) == {}
+              '/commands/joint_setpoints']
+    assert command_topics(topics, {}) == {'/px100/commands/joint_setpoints': '/px100',
+                                          '/commands/joint_setpoints': '/'}
+    sp = '/px100/commands/joint_setpoints'
+    assert command_topics([sp], {sp: '/arm2/commands/joint_setpoints'}) == {sp: '/arm2'}
+    assert command_topics([sp], {sp: '/px100/other'}) == {}
+
+
+def test_retired_request_topics_are_never_replayed():
+    """An older bag's goal and IK request topics are never re-sent, even with send_commands."""
+    for topic in ('/px100/trajectory/goal', '/arm2/ik/request', '/px100/ik/path_request'):
+        for send in (False, True):
+            assert 'retired request topics' in not_replayed(topic, send), topic
+    for topic in ('/px100/trajectory/status', '/px100/ik/solution', '/px100/joint_states',
+                  '/px100/commands/joint_setpoints'):
+        assert not_replayed(topic, False) == '', topic
 
 
 def test_withheld_warning_names_the_live_nodes():
     """The warning names each namespace's live nodes and the topics not replayed."""
-    text = withheld_warning({'/px100': ['/px100/sim_driver', '/px100/trajectory_server']},
-                            ['/px100/trajectory/goal'])
+    text = withheld_warning({'/px100': ['/px100/sim_driver', '/px100/trajectory_actions']},
+                            ['/px100/commands/joint_setpoints'])
     assert text == ('live nodes would act on the replayed commands (/px100: /px100/sim_driver, '
-                    '/px100/trajectory_server): not replaying /px100/trajectory/goal '
+                    '/px100/trajectory_actions): not replaying /px100/commands/joint_setpoints '
                     '(--send-commands replays them)')
 
 

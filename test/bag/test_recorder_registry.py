@@ -12,14 +12,14 @@ def test_entries_per_domain_and_what_they_record(monkeypatch, tmp_path):
     monkeypatch.setenv('ROS_DOMAIN_ID', '7')
     robot_only = reg.register('/px100', True, False, [], '/bags/a')
     every = reg.register('/px100', True, True, [], '/bags/b')
-    named = reg.register('/arm_1', False, False, ['/arm_2/trajectory/goal'], '/bags/c')
+    named = reg.register('/arm_1', False, False, ['/arm_2/commands/joint_setpoints'], '/bags/c')
     entries = {e['output']: e for e in reg.running()}
     assert set(entries) == {'/bags/a', '/bags/b', '/bags/c'}
-    assert reg.records(entries['/bags/a'], '/px100/trajectory/goal')
-    assert not reg.records(entries['/bags/a'], '/arm_1/trajectory/goal')
-    assert reg.records(entries['/bags/b'], '/arm_1/trajectory/goal')
-    assert reg.records(entries['/bags/c'], '/arm_2/trajectory/goal')
-    assert not reg.records(entries['/bags/c'], '/arm_1/ik/request')
+    assert reg.records(entries['/bags/a'], '/px100/commands/joint_setpoints')
+    assert not reg.records(entries['/bags/a'], '/arm_1/commands/joint_setpoints')
+    assert reg.records(entries['/bags/b'], '/arm_1/commands/joint_setpoints')
+    assert reg.records(entries['/bags/c'], '/arm_2/commands/joint_setpoints')
+    assert not reg.records(entries['/bags/c'], '/arm_1/compute_ik/_service_event')
     assert reg.running(exclude_pid=os.getpid()) == []
     monkeypatch.setenv('ROS_DOMAIN_ID', '8')
     assert reg.running() == []

@@ -285,7 +285,7 @@ def test_waypoints_pass_through_their_points():
 @pytest.mark.parametrize('name, value, words', [
     ('hold_after', 0.01, '>= 0.05'), ('hold_after', math.nan, 'hold_after must be >= 0.05'),
     ('profile', 'wobbly', 'profile must be one of'), ('accel_time', -1.0, '>= 0'),
-    ('status_history', 0, '>= 1'), ('rate', math.inf, '> 0')])
+    ('stop_deceleration', 0.0, '> 0'), ('rate', math.inf, '> 0')])
 def test_settings_errors_name_the_problem(name, value, words):
     assert words in settings_error(name, value)
     assert settings_error(name, SETTINGS.get(name, 50)) == ''

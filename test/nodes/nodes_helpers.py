@@ -1,29 +1,28 @@
-"""Test-side rclpy clients of the trajectory_server and ik_service (real nodes over DDS)."""
-import itertools
+"""Test-side rclpy clients of the trajectory_server's action and the ik_service (real DDS)."""
+from dataclasses import dataclass
 import threading
 import time
+from typing import Any
 
 from action_msgs.msg import GoalStatus, GoalStatusArray
 from action_msgs.srv import CancelGoal
-from builtin_interfaces.msg import Duration, Time
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.action import ActionClient
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (DurabilityPolicy, qos_profile_action_status_default, QoSProfile,
+                       ReliabilityPolicy)
 from sensor_msgs.msg import JointState
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectoryPoint
 
 #: seconds a node process may take to come up on a loaded 2-core machine
 STARTUP_TIMEOUT = 90.0
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                      reliability=ReliabilityPolicy.RELIABLE)
 NAMES = {v: k[7:] for k, v in vars(GoalStatus).items() if k.startswith('STATUS_')}
-_SEQ = itertools.count(1)
-
-
-def unique_stamp() -> Time:
-    """Return a stamp unique within this test process (wall time + a counter)."""
-    ns = time.time_ns() + next(_SEQ)
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+ARM_ACTION = 'arm_controller/follow_joint_trajectory'
+FJT = FollowJointTrajectory
 
 
 def duration(t: float) -> Duration:
@@ -41,33 +40,68 @@ def wait_for(predicate, timeout: float, period: float = 0.01) -> bool:
     return bool(predicate())
 
 
+def arm_goal(names, points) -> FollowJointTrajectory.Goal:
+    """Return a goal of points = [(time_from_start [s], positions[, velocities])]."""
+    goal = FJT.Goal()
+    goal.trajectory.joint_names = list(names)
+    for p in points:
+        pt = JointTrajectoryPoint(time_from_start=duration(p[0]))
+        pt.positions = [float(x) for x in p[1]]
+        if len(p) > 2:
+            pt.velocities = [float(x) for x in p[2]]
+        goal.trajectory.points.append(pt)
+    return goal
+
+
+@dataclass
+class SentGoal:
+    """A goal sent by TrajectoryClient: its UUID (the /diagnostics hardware_id in hex)."""
+
+    uuid: bytes
+    handle: Any
+    result: Any                      # the GetResult future
+
+    @property
+    def hex_id(self) -> str:
+        """Return the UUID in hex (the goal's /diagnostics hardware_id)."""
+        return self.uuid.hex()
+
+
 class TrajectoryClient(Node):
-    """Publish goals, follow trajectory/status, /diagnostics and joint_states, call cancel."""
+    """
+    Send FollowJointTrajectory goals; follow their status, /diagnostics and joint_states.
+
+    Goals go through an rclpy ActionClient; the statuses of a goal are those of the action's
+    status topic, its last one that of its result. Cancel requests go to the action's
+    ``_action/cancel_goal`` service (by UUID, or all goals when none is given).
+    """
 
     def __init__(self, **kwargs):
         kwargs.setdefault('namespace', '/px100')   # the robot's: names below are relative
         super().__init__('test_trajectory_client', **kwargs)
         self.lock = threading.Lock()
-        self.history = {}  # (sec, nanosec) -> [status names in arrival order]
+        self.seen = {}     # goal uuid (bytes) -> status names in arrival order
         self.diagnostics = []
         self.joint_state = None
         self.setpoints = []
-        self.pub = self.create_publisher(JointTrajectory, 'trajectory/goal', 10)
-        self.create_subscription(GoalStatusArray, 'trajectory/status', self._on_status,
-                                 LATCHED)
+        self.arm = ActionClient(self, FJT, ARM_ACTION)
+        self.create_subscription(GoalStatusArray, ARM_ACTION + '/_action/status',
+                                 self._on_status, qos_profile_action_status_default)
         self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 50)
         self.create_subscription(JointState, 'joint_states', self._on_js, 10)
         self.create_subscription(JointState, 'commands/joint_setpoints', self._on_sp, 100)
-        self.cancel_client = self.create_client(CancelGoal, 'trajectory/cancel')
+        self.cancel_client = self.create_client(CancelGoal,
+                                                ARM_ACTION + '/_action/cancel_goal')
 
     def _on_status(self, msg):
         with self.lock:
             for st in msg.status_list:
-                key = (st.goal_info.stamp.sec, st.goal_info.stamp.nanosec)
-                seq = self.history.setdefault(key, [])
-                name = NAMES[st.status]
-                if not seq or seq[-1] != name:
-                    seq.append(name)
+                self._note(bytes(st.goal_info.goal_id.uuid), NAMES[st.status])
+
+    def _note(self, uuid: bytes, name: str) -> None:
+        seen = self.seen.setdefault(uuid, [])
+        if not seen or seen[-1] != name:
+            seen.append(name)
 
     def _on_diag(self, msg):
         with self.lock:
@@ -82,52 +116,66 @@ class TrajectoryClient(Node):
             self.setpoints.append((time.monotonic(), dict(zip(msg.name, msg.position)),
                                    dict(zip(msg.name, msg.velocity))))
 
-    def send(self, names, points, stamp=None) -> Time:
-        """
-        Publish a goal; points = [(time_from_start, positions[, velocities])]; return its id.
+    def ready(self) -> bool:
+        """Return True once the action server is there."""
+        return self.arm.server_is_ready()
 
-        The publisher is matched with the server first so the message is not lost.
+    def _call(self, fn):
         """
-        wait_for(lambda: self.pub.get_subscription_count() > 0, 10.0)
-        stamp = stamp or unique_stamp()
-        msg = JointTrajectory()
-        msg.header.stamp = stamp
-        msg.joint_names = list(names)
-        for p in points:
-            pt = JointTrajectoryPoint()
-            pt.time_from_start = duration(p[0])
-            pt.positions = [float(x) for x in p[1]]
-            if len(p) > 2:
-                pt.velocities = [float(x) for x in p[2]]
-            msg.points.append(pt)
-        self.pub.publish(msg)
-        return stamp
+        Return what ``fn()`` returns, called in this node's executor thread.
 
-    def statuses(self, stamp):
-        """Return the status names seen for a goal so far."""
+        rclpy 7.1.6's ActionClient registers a request's future after sending it: a reply
+        taken by the executor thread in between is dropped (ros2/rclpy#1123). Called from the
+        executor's own thread, no reply can come in between.
+        """
+        task = self.executor.create_task(fn)
+        assert wait_for(task.done, 10.0), 'the executor did not run the call'
+        return task.result()
+
+    def send_goal(self, goal, timeout: float = 10.0) -> SentGoal:
+        """Send a FollowJointTrajectory goal; return it once accepted (or refused)."""
+        assert wait_for(self.ready, timeout), 'no FollowJointTrajectory server'
+        fut = self._call(lambda: self.arm.send_goal_async(goal))
+        assert wait_for(fut.done, timeout), 'no goal response'
+        handle = fut.result()
+        assert handle.accepted, 'goal not accepted'
+        return SentGoal(bytes(handle.goal_id.uuid), handle, self._call(handle.get_result_async))
+
+    def send(self, names, points) -> SentGoal:
+        """Send a goal; points = [(time_from_start, positions[, velocities])]."""
+        return self.send_goal(arm_goal(names, points))
+
+    def statuses(self, goal: SentGoal):
+        """Return the status names seen for a goal so far (its result's last)."""
         with self.lock:
-            return list(self.history.get((stamp.sec, stamp.nanosec), []))
+            if goal.result.done():
+                self._note(goal.uuid, NAMES[goal.result.result().status])
+            return list(self.seen.get(goal.uuid, []))
 
-    def wait_terminal(self, stamp, timeout: float):
+    def wait_terminal(self, goal: SentGoal, timeout: float):
         """Wait for SUCCEEDED/CANCELED/ABORTED of a goal; return its name or None."""
-        terminal = ('SUCCEEDED', 'CANCELED', 'ABORTED')
-        ok = wait_for(lambda: any(s in terminal for s in self.statuses(stamp)), timeout)
-        return self.statuses(stamp)[-1] if ok else None
+        if not wait_for(goal.result.done, timeout):
+            return None
+        return self.statuses(goal)[-1]
 
-    def wait_status(self, stamp, name: str, timeout: float) -> bool:
+    def result(self, goal: SentGoal, timeout: float = 10.0):
+        """Wait for and return a goal's FollowJointTrajectory.Result."""
+        assert wait_for(goal.result.done, timeout), 'no result'
+        return goal.result.result().result
+
+    def wait_status(self, goal: SentGoal, name: str, timeout: float) -> bool:
         """Wait until a goal has reached the status called name."""
-        return wait_for(lambda: name in self.statuses(stamp), timeout)
+        return wait_for(lambda: name in self.statuses(goal), timeout)
 
-    def diagnostics_for(self, stamp):
-        """Return the /diagnostics statuses whose hardware_id is this goal's id."""
-        gid = f'{stamp.sec}.{stamp.nanosec:09d}'
+    def diagnostics_for(self, goal: SentGoal):
+        """Return the /diagnostics statuses whose hardware_id is this goal's UUID (hex)."""
         with self.lock:
-            return [d for d in self.diagnostics if d.hardware_id == gid]
+            return [d for d in self.diagnostics if d.hardware_id == goal.hex_id]
 
-    def last_diagnostic(self, stamp, timeout: float = 5.0):
+    def last_diagnostic(self, goal: SentGoal, timeout: float = 5.0):
         """Wait for and return the last /diagnostics status of a goal (None if none came)."""
-        wait_for(lambda: self.diagnostics_for(stamp), timeout)
-        found = self.diagnostics_for(stamp)
+        wait_for(lambda: self.diagnostics_for(goal), timeout)
+        found = self.diagnostics_for(goal)
         return found[-1] if found else None
 
     def measured(self):
@@ -140,12 +188,11 @@ class TrajectoryClient(Node):
         with self.lock:
             return len(self.setpoints)
 
-    def cancel(self, stamp=None, uuid=None, timeout: float = 5.0):
-        """Call trajectory/cancel; return the response (None on timeout)."""
+    def cancel(self, goal: SentGoal = None, uuid: bytes = None, timeout: float = 5.0):
+        """Call the action's cancel_goal (a goal, a UUID, or all); return the response."""
         assert self.cancel_client.wait_for_service(timeout_sec=timeout)
         req = CancelGoal.Request()
-        if stamp is not None:
-            req.goal_info.stamp = stamp
+        uuid = goal.uuid if goal is not None else uuid
         if uuid is not None:
             req.goal_info.goal_id.uuid = list(uuid)
         fut = self.cancel_client.call_async(req)
@@ -170,93 +217,41 @@ def start_node(processes, name: str, *params: str):
 
 
 class IkClient(Node):
-    """Send ik/request and ik/path_request; collect every reply by stamp (counting repeats)."""
+    """compute_ik and compute_cartesian_path clients (calls from any thread; spun elsewhere)."""
 
     def __init__(self, name: str = 'test_ik_client', **kwargs):
-        from diagnostic_msgs.msg import DiagnosticStatus
-        from geometry_msgs.msg import PoseArray, PoseStamped
+        from px100_control.ros.ik_services import SERVICE_QOS
+        from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
         kwargs.setdefault('namespace', '/px100')   # the robot's: names below are relative
         super().__init__(name, **kwargs)
-        self.lock = threading.Lock()
-        self.solutions = {}   # (sec, nanosec) -> [JointState]
-        self.statuses = {}    # 'sec.nanosec' -> [DiagnosticStatus]
-        self.paths = {}       # (sec, nanosec) -> [JointTrajectory]
-        qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.pub = self.create_publisher(PoseStamped, 'ik/request', qos)
-        self.pub_path = self.create_publisher(PoseArray, 'ik/path_request', 10)
-        self.create_subscription(JointState, 'ik/solution', self._on_solution, qos)
-        self.create_subscription(DiagnosticStatus, 'ik/status', self._on_status, qos)
-        self.create_subscription(JointTrajectory, 'ik/path_solution', self._on_path, 10)
-
-    def _on_solution(self, msg):
-        with self.lock:
-            self.solutions.setdefault((msg.header.stamp.sec, msg.header.stamp.nanosec),
-                                      []).append(msg)
-
-    def _on_status(self, msg):
-        with self.lock:
-            self.statuses.setdefault(msg.hardware_id, []).append(msg)
-
-    def _on_path(self, msg):
-        with self.lock:
-            self.paths.setdefault((msg.header.stamp.sec, msg.header.stamp.nanosec),
-                                  []).append(msg)
+        # as deep as the server's: a burst of calls loses none in this client's writer
+        self.ik = self.create_client(ComputeIK, 'compute_ik', qos_profile=SERVICE_QOS)
+        self.path = self.create_client(ComputeCartesianPath, 'compute_cartesian_path',
+                                       qos_profile=SERVICE_QOS)
 
     def ready(self) -> bool:
-        """Return True once the ik_service matched our request publisher and reply readers."""
-        return (self.pub.get_subscription_count() > 0
-                and self.count_publishers(self.resolve_topic_name('ik/status')) > 0
-                and self.pub_path.get_subscription_count() > 0)
+        """Return True once both services are there."""
+        return self.ik.service_is_ready() and self.path.service_is_ready()
 
-    def request(self, pose, frame_id: str = '', stamp=None) -> Time:
-        """Publish one ik/request for a geometry_msgs/Pose; return its id stamp."""
+    def request(self, pose, frame_id: str = '', mode: str = '', seed=()):
+        """Call compute_ik for a geometry_msgs/Pose; return the call's future."""
         from geometry_msgs.msg import PoseStamped
-        msg = PoseStamped()
-        msg.header.stamp = stamp or unique_stamp()
-        msg.header.frame_id = frame_id
-        msg.pose = pose
-        self.pub.publish(msg)
-        return msg.header.stamp
+        from px100_control_msgs.srv import ComputeIK
+        req = ComputeIK.Request(target=PoseStamped(pose=pose), orientation_mode=mode,
+                                seed=[float(x) for x in seed])
+        req.target.header.frame_id = frame_id
+        return self.ik.call_async(req)
 
-    def request_path(self, poses, frame_id: str = '') -> Time:
-        """Publish one ik/path_request; return its id stamp."""
-        from geometry_msgs.msg import PoseArray
-        msg = PoseArray()
-        msg.header.stamp = unique_stamp()
-        msg.header.frame_id = frame_id
-        msg.poses = list(poses)
-        self.pub_path.publish(msg)
-        return msg.header.stamp
+    def request_path(self, poses, frame_id: str = '', mode: str = ''):
+        """Call compute_cartesian_path; return the call's future."""
+        from px100_control_msgs.srv import ComputeCartesianPath
+        req = ComputeCartesianPath.Request(orientation_mode=mode)
+        req.waypoints.header.frame_id = frame_id
+        req.waypoints.poses = list(poses)
+        return self.path.call_async(req)
 
-    def reply(self, stamp, timeout: float = 10.0):
-        """Wait for the solution and status of a request; return (JointState, status)."""
-        key, hw = (stamp.sec, stamp.nanosec), f'{stamp.sec}.{stamp.nanosec:09d}'
-
-        def both():
-            with self.lock:
-                return key in self.solutions and hw in self.statuses
-        assert wait_for(both, timeout), f'no reply to ik request {hw}'
-        with self.lock:
-            return self.solutions[key][0], self.statuses[hw][0]
-
-    def path_reply(self, stamp, timeout: float = 20.0):
-        """Wait for the path solution and status of a path request; return both."""
-        key, hw = (stamp.sec, stamp.nanosec), f'{stamp.sec}.{stamp.nanosec:09d}'
-
-        def both():
-            with self.lock:
-                return key in self.paths and hw in self.statuses
-        assert wait_for(both, timeout), f'no reply to ik path request {hw}'
-        with self.lock:
-            return self.paths[key][0], self.statuses[hw][0]
-
-    def counts(self, stamp):
-        """Return (number of solutions, number of statuses) received for a request."""
-        with self.lock:
-            return (len(self.solutions.get((stamp.sec, stamp.nanosec), [])),
-                    len(self.statuses.get(f'{stamp.sec}.{stamp.nanosec:09d}', [])))
-
-
-def status_values(status) -> dict:
-    """Return the KeyValue list of a DiagnosticStatus as a dict."""
-    return {kv.key: kv.value for kv in status.values}
+    @staticmethod
+    def reply(future, timeout: float = 10.0):
+        """Wait for and return the response of a call."""
+        assert wait_for(future.done, timeout), f'no response in {timeout} s'
+        return future.result()

@@ -39,21 +39,22 @@ def test_bringup_executable_moves_the_arm_and_answers_ik(ros_ctx, spinner, proce
     client = spinner.add(TrajectoryClient(context=ros_ctx))
     ik = spinner.add(IkClient('test_bringup_ik_client', context=ros_ctx))
     assert wait_for(lambda: client.measured() is not None, STARTUP_TIMEOUT), proc.output()
-    assert wait_for(lambda: client.pub.get_subscription_count() > 0, STARTUP_TIMEOUT)
+    assert wait_for(client.ready, STARTUP_TIMEOUT)
     assert wait_for(ik.ready, STARTUP_TIMEOUT)
     time.sleep(1.0)
     target = [0.4, -0.6, 0.6, 0.2]
-    stamp = client.send(ARM, [(1.5, target)])
-    assert client.wait_terminal(stamp, 30.0) == 'SUCCEEDED', client.last_diagnostic(stamp)
+    goal = client.send(ARM, [(1.5, target)])
+    assert client.wait_terminal(goal, 30.0) == 'SUCCEEDED', client.last_diagnostic(goal)
 
     def arrived():
         q = client.measured()
         return max(abs(q[j] - v) for j, v in zip(ARM, target)) <= 0.002
     assert wait_for(arrived, 5.0), client.measured()   # (our reader may lag the driver)
     T = MODEL.fk(np.array(target))
-    sol, status = ik.reply(ik.request(matrix_to_pose(T)))
-    assert status.level == b'\x00'
-    np.testing.assert_allclose(MODEL.fk(np.array(sol.position))[:3, 3], T[:3, 3], atol=1e-9)
+    res = ik.reply(ik.request(matrix_to_pose(T)))
+    assert res.success, res.message
+    np.testing.assert_allclose(MODEL.fk(np.array(res.solution.position))[:3, 3], T[:3, 3],
+                               atol=1e-9)
     assert proc.stop() == 0 and not proc.killed
 
 

@@ -3,7 +3,9 @@ A second driver or trajectory_server in one namespace is detected and named; rep
 
 Real processes: two bringups in one namespace (the nodes log the duplicates by name), an
 in-process bringup beside a running one (the client refuses, naming both), and a replay of a
-bag's goals and setpoints into a namespace with live nodes (withheld unless --send-commands).
+bag's setpoints into a namespace with live nodes (withheld unless --send-commands; the retired
+goal topic of an older bag is never re-sent). A trajectory server is named by the node that
+serves its action (the trajectory_server's helper node ``trajectory_actions``).
 """
 import os
 import time
@@ -31,8 +33,8 @@ def test_two_bringups_in_one_namespace_are_named(node_process):
     text = (f"2 drivers publish joint_states under '/{ns}': /{ns}/sim_driver (x2, same name)")
     assert _wait(lambda: text in a.output() or text in b.output(), 40.0), \
         a.output()[-2000:] + b.output()[-2000:]
-    text = (f"2 trajectory servers take trajectory/goal under '/{ns}': "
-            f'/{ns}/trajectory_server (x2, same name)')
+    text = (f"2 nodes serve arm_controller/follow_joint_trajectory under '/{ns}': "
+            f'/{ns}/trajectory_actions (x2, same name)')
     assert _wait(lambda: text in a.output() or text in b.output(), 10.0), \
         a.output()[-2000:] + b.output()[-2000:]
 
@@ -58,7 +60,8 @@ def test_peers_are_looked_for_in_the_node_namespace(rclpy_context):
         assert nodes[0]._duplicates.startswith(
             f"2 drivers publish joint_states under '{ns}': {ns}/sim_driver (x2, same name)")
         assert nodes[2]._duplicates.startswith(
-            f"2 trajectory servers take trajectory/goal under '{ns}': {ns}/trajectory_server")
+            f"2 nodes serve arm_controller/follow_joint_trajectory under '{ns}': "
+            f'{ns}/trajectory_actions')
     finally:
         for node in nodes:
             node.destroy_node()
@@ -76,12 +79,12 @@ def test_in_process_bringup_beside_a_running_one_is_refused(node_process):
             InterbotixManipulatorXS('px100', robot_name=ns, bringup=True, connect_timeout=30.0)
     finally:
         robot_shutdown()
-    assert '/sim_driver' in str(err.value) and '/trajectory_server' in str(err.value)
+    assert '/sim_driver' in str(err.value) and '/trajectory_actions' in str(err.value)
     assert 'connect to those instead' in str(err.value)
 
 
 def _command_bag(path, ns):
-    """Write a bag with one goal (waist to 1 rad) and one setpoint on ns."""
+    """Write a bag with one goal on the retired goal topic and one setpoint on ns."""
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -102,7 +105,7 @@ def _command_bag(path, ns):
 
 @pytest.mark.parametrize('send', [False, True])
 def test_replay_into_a_live_graph_withholds_commands(node_process, tmp_path, send):
-    """Live nodes: goals and setpoints withheld with a warning naming them (or sent on request)."""
+    """Live nodes: setpoints withheld, naming them (or sent on request); old goals never sent."""
     ns = f'px100_rep_{os.getpid()}_{int(send)}'
     bag = str(tmp_path / 'bag')
     _command_bag(bag, ns)
@@ -113,8 +116,8 @@ def test_replay_into_a_live_graph_withholds_commands(node_process, tmp_path, sen
                             f'robot_name:={ns}')
     assert listener.wait_for_output('ready', 30.0), listener.output()
     time.sleep(2.0)
-    # --send-commands: the goal needs recorder + trajectory_server, the setpoint recorder +
-    # sim_driver as subscribers before it goes out
+    # --send-commands: the setpoint needs recorder + sim_driver as subscribers before it goes
+    # out
     args = ['--send-commands', '--wait-for-subscribers', '20', '--min-subscribers', '2'] \
         if send else []
     replay = node_process('replay', bag, *args, '--ros-args', '-p', f'robot_name:={ns}')
@@ -127,10 +130,12 @@ def test_replay_into_a_live_graph_withholds_commands(node_process, tmp_path, sen
         counts = {t: s.message_count for t, s in seen.summary().topics.items()}
     goals = counts.get(f'/{ns}/trajectory/goal', 0)
     setpoints = counts.get(f'/{ns}/commands/joint_setpoints', 0)
+    assert 'retired request topics are never re-sent' in out, out
+    assert goals == 0, counts
     if send:
         assert 'not replaying' not in out
-        assert goals == 1 and setpoints >= 1, counts  # (+ the server's own setpoints)
+        assert setpoints >= 1, counts
     else:
         assert 'not replaying' in out and '/sim_driver' in out, out
-        assert '/trajectory_server' in out, out
-        assert goals == 0 and setpoints == 0, counts
+        assert '/trajectory_actions' in out, out
+        assert setpoints == 0, counts

@@ -98,7 +98,7 @@ def graph(ros_ctx, spinner, processes):
     recorder = Recorder(client)
     ik = spinner.add(IkClient('test_e2e_ik_client', context=ros_ctx))
     assert wait_for(lambda: client.measured() is not None, STARTUP_TIMEOUT)
-    assert wait_for(lambda: client.pub.get_subscription_count() > 0, STARTUP_TIMEOUT), \
+    assert wait_for(client.ready, STARTUP_TIMEOUT), \
         server.output()
     assert wait_for(ik.ready, STARTUP_TIMEOUT)
     time.sleep(1.0)
@@ -116,9 +116,9 @@ def test_goal_reaches_final_position_on_time(graph, target, moving_time):
     client, _, rec = graph
     time.sleep(0.3)
     k = rec.setpoint_count()
-    stamp = client.send(ARM, [(moving_time, target)])
-    status = client.wait_terminal(stamp, moving_time + 20.0)
-    assert status == 'SUCCEEDED', client.last_diagnostic(stamp).message
+    goal = client.send(ARM, [(moving_time, target)])
+    status = client.wait_terminal(goal, moving_time + 20.0)
+    assert status == 'SUCCEEDED', client.last_diagnostic(goal).message
     t0 = rec.setpoint_stamp(k)
     time.sleep(0.3)
     assert wait_for(lambda: rec.now() > t0 + int((moving_time + 1.0) * 1e9), 20.0)
@@ -141,10 +141,10 @@ def test_ik_solution_executed_puts_the_end_effector_on_target(graph):
     """ik_service solution sent as a goal: the simulated ee_pose reaches the target pose."""
     client, ik, rec = graph
     T = MODEL.fk(np.array([0.3, -0.3, 0.4, 0.4]))
-    sol, status = ik.reply(ik.request(matrix_to_pose(T)))
-    assert status.level == b'\x00', status.message
-    stamp = client.send(list(sol.name), [(1.0, list(sol.position))])
-    assert client.wait_terminal(stamp, 12.0) == 'SUCCEEDED'
+    res = ik.reply(ik.request(matrix_to_pose(T)))
+    assert res.success, res.message
+    goal = client.send(list(res.solution.name), [(1.0, list(res.solution.position))])
+    assert client.wait_terminal(goal, 12.0) == 'SUCCEEDED'
 
     def on_target():
         ee = rec.last_ee()
@@ -157,13 +157,13 @@ def test_cancel_brings_the_simulated_arm_to_rest(graph):
     """Cancel mid-move: CANCELED, and the measured arm stops short of the goal and stays."""
     client, _, rec = graph
     start = client.measured()['waist']
-    stamp = client.send(['waist'], [(2.0, [start + 1.2])])
-    assert client.wait_status(stamp, 'EXECUTING', 10.0)
+    goal = client.send(['waist'], [(2.0, [start + 1.2])])
+    assert client.wait_status(goal, 'EXECUTING', 10.0)
     assert wait_for(lambda: client.measured()['waist'] > start + 0.3, 20.0)
-    resp = client.cancel(stamp=stamp)
-    assert resp is not None and resp.return_code == 0, (client.statuses(stamp),
-                                                        client.last_diagnostic(stamp, 1.0))
-    assert client.wait_terminal(stamp, 10.0) == 'CANCELED'
+    resp = client.cancel(goal)
+    assert resp is not None and resp.return_code == 0, (client.statuses(goal),
+                                                        client.last_diagnostic(goal, 1.0))
+    assert client.wait_terminal(goal, 10.0) == 'CANCELED'
 
     def at_rest():   # the last 0.5 s (graph time) of measurements lie within 2 mrad
         tail = [q[0] for t, q in rec.states_since(rec.now() - 500_000_000)]

@@ -2,16 +2,16 @@
 The ik_service over DDS: the installed node as a process, clients and a joint-state source here.
 
 Reachable, unreachable, NaN and position-only targets, the orientation modes, frames, the best
-solution closest to the measured state, paths, and request/reply matching under concurrency
-(exactly one solution and one status per request, each for the right request).
+solution closest to the measured state, paths (``compute_ik`` and ``compute_cartesian_path``),
+and concurrent clients each answered for their own requests.
 """
+import re
 import threading
 import time
 
 from geometry_msgs.msg import Pose
 from nodes_fake_driver import FakeDriver
-from nodes_helpers import (IkClient, start_node, STARTUP_TIMEOUT, status_values, unique_stamp,
-                           wait_for)
+from nodes_helpers import IkClient, start_node, STARTUP_TIMEOUT, wait_for
 import numpy as np
 from px100_control.kinematics.se3 import rot_x
 from px100_control.kinematics.solve import solve_ik
@@ -24,7 +24,6 @@ from rclpy.parameter_client import AsyncParameterClient
 pytestmark = pytest.mark.ros
 
 MODEL = load_robot('px100')
-OK, ERROR = b'\x00', b'\x02'
 
 
 def _x_axis_angle(Ta, Tb) -> float:
@@ -52,13 +51,12 @@ class Env:
         time.sleep(0.3)
 
     def solve(self, T=None, pose=None, frame_id=''):
-        """Request IK of a (4, 4) target (or a Pose); return (q or None, status)."""
-        stamp = self.client.request(pose if pose is not None else matrix_to_pose(T), frame_id)
-        sol, status = self.client.reply(stamp)
-        assert status.hardware_id == f'{stamp.sec}.{stamp.nanosec:09d}'
-        assert sol.header.stamp == stamp
-        assert list(sol.name) == list(MODEL.joint_names)
-        return (np.array(sol.position) if len(sol.position) else None), status
+        """Call compute_ik for a (4, 4) target (or a Pose); return (q or None, response)."""
+        res = self.client.reply(self.client.request(
+            pose if pose is not None else matrix_to_pose(T), frame_id))
+        assert list(res.solution.name) == list(MODEL.joint_names)
+        assert res.success == (len(res.solution.position) > 0), res
+        return (np.array(res.solution.position) if res.success else None), res
 
 
 @pytest.fixture(scope='module')
@@ -88,18 +86,15 @@ def test_reachable_target_is_solved_exactly(fresh):
     rng = np.random.default_rng(4)
     for q in MODEL.random_configurations(5, rng, margin=0.1):
         T = MODEL.fk(q)
-        q_sol, status = env.solve(T)
-        assert status.level == OK and status.message == 'solved', status.message
+        q_sol, res = env.solve(T)
+        assert res.success and res.message == 'solved', res.message
         T_sol = MODEL.fk(q_sol)
         np.testing.assert_allclose(T_sol[:3, 3], T[:3, 3], atol=1e-9)
         assert _x_axis_angle(T_sol, T) < 1e-9
         assert MODEL.within_limits(q_sol)
-        vals = status_values(status)
-        assert vals['method'].startswith('analytic') and vals['iterations'] == '0'
-        assert int(vals['solutions']) >= 1 and vals['mode'] == 'pitch'
-        assert float(vals['position_error']) < 1e-9
-        assert abs(float(vals['unreachable_roll'])) < 1e-9
-        assert status.name == 'px100/ik_service'
+        assert res.method.startswith('analytic') and res.iterations == 0
+        assert res.num_solutions >= 1
+        assert res.position_error < 1e-9 and res.orientation_error < 1e-9
 
 
 def test_best_solution_is_the_one_closest_to_the_measured_state(fresh):
@@ -117,21 +112,21 @@ def test_best_solution_is_the_one_closest_to_the_measured_state(fresh):
         pytest.fail('no target with two distinct branches found')
     for pick in (sols[1], sols[0]):
         env.set_state(pick + 0.01)
-        q_sol, status = env.solve(T)
-        assert status.level == OK
+        q_sol, res = env.solve(T)
+        assert res.success, res.message
         np.testing.assert_allclose(q_sol, pick, atol=1e-9)
 
 
 def test_unreachable_target_is_refused_with_the_reason(fresh):
     """Out of reach: ERROR, empty solution, a reason that says by how much."""
-    q, status = fresh.solve(np.array([[1, 0, 0, 0.6], [0, 1, 0, 0], [0, 0, 1, 0.2],
-                                      [0, 0, 0, 1.0]]))
-    assert q is None and status.level == ERROR
-    assert 'reach' in status.message, status.message
+    q, res = fresh.solve(np.array([[1, 0, 0, 0.6], [0, 1, 0, 0], [0, 0, 1, 0.2],
+                                   [0, 0, 0, 1.0]]))
+    assert q is None and not res.success
+    assert 'reach' in res.message, res.message
 
 
 def test_nan_and_malformed_requests_are_refused_once(fresh):
-    """NaN, a non-unit quaternion, a foreign frame: one empty solution and one ERROR each."""
+    """NaN, a non-unit quaternion, a foreign frame: refused with the reason, no solution."""
     env = fresh
     bad = Pose()
     bad.position.x = float('nan')
@@ -142,28 +137,24 @@ def test_nan_and_malformed_requests_are_refused_once(fresh):
     good = matrix_to_pose(MODEL.fk(np.zeros(4)))
     cases = [(bad, '', 'NaN'), (squashed, '', 'quaternion'), (good, 'world', 'frame_id')]
     for pose, frame, words in cases:
-        stamp = env.client.request(pose, frame)
-        sol, status = env.client.reply(stamp)
-        assert status.level == ERROR and words in status.message, status.message
-        assert len(sol.position) == 0
-        time.sleep(0.2)
-        assert env.client.counts(stamp) == (1, 1)
+        q, res = env.solve(pose=pose, frame_id=frame)
+        assert not res.success and words in res.message, res.message
+        assert q is None
     for frame in ('px100/base_link', 'base_link'):
-        q, status = env.solve(pose=good, frame_id=frame)
-        assert status.level == OK and q is not None
+        q, res = env.solve(pose=good, frame_id=frame)
+        assert res.success and q is not None
 
 
 def test_position_only_target_takes_the_nominal_pitch(fresh):
-    """An all-zero quaternion: position-only IK (mode 'position'), position reached."""
+    """An all-zero quaternion: position-only IK, position reached, pitch toward nominal."""
     env = fresh
     env.set_state(np.asarray(MODEL.home, float))   # the reply follows the measured state
     T = MODEL.fk(np.array([0.4, -0.3, 0.5, 0.2]))
     pose = matrix_to_pose(T)
     pose.orientation.x = pose.orientation.y = pose.orientation.z = pose.orientation.w = 0.0
-    q, status = env.solve(pose=pose)
-    assert status.level == OK, status.message
+    q, res = env.solve(pose=pose)
+    assert res.success, res.message
     np.testing.assert_allclose(MODEL.fk(q)[:3, 3], T[:3, 3], atol=1e-6)
-    assert status_values(status)['mode'] == 'position'
     # the free pitch goes toward the nominal (home) pose: as close to it as the target allows
     ref = solve_ik(MODEL, T, mode='position', q_nominal=MODEL.home, q_seed=MODEL.home)
     assert np.linalg.norm(q - MODEL.home) <= np.linalg.norm(ref.q - MODEL.home) + 1e-6
@@ -175,15 +166,16 @@ def test_orientation_modes_pitch_reports_and_strict_refuses(fresh):
     T = MODEL.fk(np.array([0.3, -0.2, 0.4, 0.3]))
     T_roll = T.copy()
     T_roll[:3, :3] = T[:3, :3] @ rot_x(0.3)
-    q, status = env.solve(T_roll)
-    assert status.level == OK and 'warning' in status.message, status.message
-    assert abs(abs(float(status_values(status)['unreachable_roll'])) - 0.3) < 1e-6
+    q, res = env.solve(T_roll)
+    assert res.success and 'warning' in res.message, res.message
+    roll = float(re.search(r'roll ([0-9.e-]+) rad', res.message).group(1))
+    assert abs(roll - 0.3) < 1e-3, res.message
     np.testing.assert_allclose(MODEL.fk(q)[:3, 3], T[:3, 3], atol=1e-9)
     env.set_params(orientation_mode='strict')
-    q, status = env.solve(T_roll)
-    assert q is None and status.level == ERROR
-    q, status = env.solve(T)
-    assert status.level == OK and q is not None
+    q, res = env.solve(T_roll)
+    assert q is None and not res.success
+    q, res = env.solve(T)
+    assert res.success and q is not None
 
 
 def test_path_is_solved_point_by_point_without_branch_jumps(fresh):
@@ -197,9 +189,9 @@ def test_path_is_solved_point_by_point_without_branch_jumps(fresh):
         T[:3, 3] += np.array([0.005, 0.004, -0.003]) * k
         targets.append(T)
         poses.append(matrix_to_pose(T))
-    stamp = env.client.request_path(poses)
-    traj, status = env.client.path_reply(stamp)
-    assert status.level == OK, status.message
+    res = env.client.reply(env.client.request_path(poses), timeout=20.0)
+    traj = res.trajectory
+    assert res.success, res.message
     assert len(traj.points) == 10 and list(traj.joint_names) == list(MODEL.joint_names)
     Q = np.array([p.positions for p in traj.points])
     assert np.max(np.abs(np.diff(Q, axis=0))) < 0.1
@@ -215,19 +207,18 @@ def test_path_stops_at_the_failing_pose_and_says_which(fresh):
     far = T0.copy()
     far[:3, 3] = [0.7, 0.0, 0.1]
     poses += [matrix_to_pose(far), matrix_to_pose(T0)]
-    traj, status = env.client.path_reply(env.client.request_path(poses))
-    assert status.level == ERROR
-    assert status_values(status)['failed_index'] == '3'
-    assert 'pose 3' in status.message, status.message
-    assert len(traj.points) == 3
+    res = env.client.reply(env.client.request_path(poses), timeout=20.0)
+    assert not res.success
+    assert 'pose 3' in res.message, res.message
+    assert len(res.trajectory.points) == 3
     nan_path = [matrix_to_pose(T0), Pose()]
     nan_path[1].position.x = float('nan')
-    traj, status = env.client.path_reply(env.client.request_path(nan_path))
-    assert status.level == ERROR and 'pose 1' in status.message and len(traj.points) == 0
+    res = env.client.reply(env.client.request_path(nan_path), timeout=20.0)
+    assert not res.success and 'pose 1' in res.message and len(res.trajectory.points) == 0
 
 
 def test_concurrent_clients_each_get_exactly_their_replies(fresh, ros_ctx, spinner):
-    """Four clients firing at once: one solution and one status per request, each matching."""
+    """Four clients calling at once: each response answers its own request."""
     env = fresh
     env.set_state(MODEL.sleep)
     clients = [spinner.add(IkClient(f'test_ik_client_{k}', context=ros_ctx)) for k in range(4)]
@@ -253,48 +244,40 @@ def test_concurrent_clients_each_get_exactly_their_replies(fresh, ros_ctx, spinn
     for th in threads:
         th.join()
     for c in clients:
-        for stamp, T in sent[id(c)]:
-            sol, status = c.reply(stamp, timeout=60.0)
+        for future, T in sent[id(c)]:
+            res = c.reply(future, timeout=60.0)
             if np.linalg.norm(T[:3, 3]) > 0.5:
-                assert status.level == ERROR and len(sol.position) == 0
+                assert not res.success and len(res.solution.position) == 0
             else:
-                assert status.level == OK, status.message
-                np.testing.assert_allclose(MODEL.fk(np.array(sol.position))[:3, 3], T[:3, 3],
-                                           atol=1e-9)
-    time.sleep(1.0)
-    for c in clients:
-        for stamp, _ in sent[id(c)]:
-            assert c.counts(stamp) == (1, 1), 'lost or duplicated reply'
-        with c.lock:   # every client sees every reply, and only one of each
-            assert all(len(v) == 1 for v in c.solutions.values())
+                assert res.success, res.message
+                np.testing.assert_allclose(MODEL.fk(np.array(res.solution.position))[:3, 3],
+                                           T[:3, 3], atol=1e-9)
 
 
 def test_burst_answers_equal_solve_ik(fresh):
-    """A burst (served in batches) answers exactly what solve_ik does for the same seed."""
+    """A burst of calls answers exactly what solve_ik does for the same seed."""
     env = fresh
     seed = np.array([0.1, -0.5, 0.7, 0.2])
     env.set_state(seed)
     rng = np.random.default_rng(3)
     targets = [MODEL.fk(q) for q in MODEL.random_configurations(150, rng, margin=0.05)]
-    stamps = [env.client.request(matrix_to_pose(T)) for T in targets]
-    for stamp, T in zip(stamps, targets):
-        sol, status = env.client.reply(stamp, timeout=60.0)
+    futures = [env.client.request(matrix_to_pose(T)) for T in targets]
+    for future, T in zip(futures, targets):
+        res = env.client.reply(future, timeout=60.0)
         ref = solve_ik(MODEL, T, mode='pitch', q_seed=seed)
-        assert (status.level == OK) == ref.success
+        assert res.success == ref.success
         if ref.success:
-            np.testing.assert_allclose(np.array(sol.position), ref.q, atol=1e-9)
-            assert int(status_values(status)['solutions']) == len(ref.solutions)
+            np.testing.assert_allclose(np.array(res.solution.position), ref.q, atol=1e-9)
+            assert res.num_solutions == len(ref.solutions)
 
 
 def test_node_replies_with_solve_ik(ros_ctx):
-    """In-process: every reply is solve_ik's answer (q, level, solutions, method, dropped roll)."""
-    from px100_control.kinematics.solve import solve_ik
+    """In-process: every compute_ik answer is solve_ik's (q, success, branches, dropped roll)."""
+    from geometry_msgs.msg import PoseStamped
     from px100_control.ros.ik_service_node import IkServiceNode
+    from px100_control_msgs.srv import ComputeIK
     node = IkServiceNode(context=ros_ctx)
     try:
-        replies = []
-        node._reply = lambda stamp, q, level, message, values: replies.append(
-            (stamp, None if q is None else np.array(q), level, message, dict(values)))
         rng = np.random.default_rng(5)
         targets = [MODEL.fk(q) for q in MODEL.random_configurations(60, rng, margin=0.0)]
         targets.append(np.array([[1, 0, 0, 0.7], [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 1.0]]))
@@ -302,21 +285,19 @@ def test_node_replies_with_solve_ik(ros_ctx):
         T_roll[:3, :3] = T_roll[:3, :3] @ rot_x(0.2)
         targets.append(T_roll)
         seed = np.array([0.3, -0.4, 0.5, 0.1])
-        for k, T in enumerate(targets):
-            node._solve_one(k, T, 'pitch', seed)
-        assert [r[0] for r in replies] == list(range(len(targets)))
-        for (_, q, level, message, values), T in zip(replies, targets):
+        for T in targets:
+            req = ComputeIK.Request(target=PoseStamped(pose=matrix_to_pose(T)),
+                                    seed=[float(x) for x in seed])
+            res = node._ik_services._on_ik(req, ComputeIK.Response())
             ref = solve_ik(MODEL, T, mode='pitch', q_seed=seed, method='analytic')
-            assert (level == OK) == ref.success, message
+            assert res.success == ref.success, res.message
             if not ref.success:
-                assert q is None and message == ref.reason
+                assert len(res.solution.position) == 0 and res.message == ref.reason
                 continue
-            np.testing.assert_allclose(q, ref.q, atol=1e-12)
-            assert values['method'] == ref.method and values['iterations'] == '0'
-            assert int(values['solutions']) == len(ref.solutions)
-            assert float(values['unreachable_roll']) == pytest.approx(
-                ref.details['unreachable_roll'], abs=1e-9)
-        assert 'warning' in replies[-1][3]          # the dropped roll of T_roll is named
+            np.testing.assert_allclose(res.solution.position, ref.q, atol=1e-12)
+            assert res.method == ref.method and res.iterations == 0
+            assert res.num_solutions == len(ref.solutions)
+        assert 'warning' in res.message          # the dropped roll of T_roll is named
     finally:
         node.destroy_node()
 
@@ -327,31 +308,5 @@ def test_parameters_are_validated(fresh):
     fut = env.params.set_parameters([Parameter('orientation_mode', value='sideways')])
     assert wait_for(fut.done, 10.0)
     assert not fut.result().results[0].successful
-    q, status = env.solve(MODEL.fk(np.zeros(4)))
-    assert status.level == OK
-
-
-def test_unique_stamps_are_unique():
-    """The helper gives distinct ids (the tests rely on it)."""
-    stamps = {(s.sec, s.nanosec) for s in (unique_stamp() for _ in range(1000))}
-    assert len(stamps) == 1000
-
-
-@pytest.mark.parametrize('frame', ['', 'a', 'px100/base_link', 'abcdefg', 'abcdefgh', 'é' * 5])
-def test_serialized_request_is_read_like_the_deserializer(frame):
-    """parse_pose_stamped (the raw fast path) equals rclpy's deserializer for any frame_id."""
-    from geometry_msgs.msg import PoseStamped
-    from px100_control.ros.ik_service_node import parse_pose_stamped
-    from rclpy.serialization import serialize_message
-    msg = PoseStamped()
-    msg.header.stamp.sec, msg.header.stamp.nanosec = -5, 999_999_999
-    msg.header.frame_id = frame
-    vals = [0.1, -0.2, 0.3, float('nan'), 0.0, -0.0, 1.0]
-    p, o = msg.pose.position, msg.pose.orientation
-    p.x, p.y, p.z, o.x, o.y, o.z, o.w = vals
-    raw = serialize_message(msg)
-    stamp, got_frame, got = parse_pose_stamped(raw)
-    assert (stamp.sec, stamp.nanosec, got_frame) == (-5, 999_999_999, frame)
-    np.testing.assert_array_equal(np.array(got), np.array(vals))
-    with pytest.raises(Exception):  # unreadable bytes raise (the node logs and drops them)
-        parse_pose_stamped(b'\x00\x00' + raw[2:9])
+    q, res = env.solve(MODEL.fk(np.zeros(4)))
+    assert res.success

@@ -18,6 +18,7 @@ import pytest
 
 GLOBAL = {'/diagnostics', '/rosout', '/parameter_events', '/clock'}
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+SEND_GOAL = '/arm_controller/follow_joint_trajectory/_action/send_goal'
 
 
 def _start(processes, name, *ros_args):
@@ -90,10 +91,12 @@ def test_robot_name_places_a_node_started_without_namespace(probe, processes):
     """`-p robot_name:=arm7` (no __ns): the node and its names move to /arm7."""
     proc = _start(processes, 'trajectory_server', '-p', 'robot_name:=arm7')
     _wait_node(probe, '/arm7', 'trajectory_server', proc)
-    pubs, subs, srvs = _names(probe, 'trajectory_server', '/arm7', '/arm7/trajectory/cancel')
-    assert {'/arm7/trajectory/status', '/arm7/commands/joint_setpoints'} <= pubs
-    assert {'/arm7/joint_states', '/arm7/trajectory/goal'} <= subs
-    assert '/arm7/trajectory/cancel' in srvs
+    pubs, subs, _ = _names(probe, 'trajectory_server', '/arm7', '/arm7/trajectory/feedback')
+    assert {'/arm7/trajectory/feedback', '/arm7/commands/joint_setpoints'} <= pubs
+    assert '/arm7/joint_states' in subs
+    # its actions are served by its helper node, in the same namespace
+    _, _, srvs = _names(probe, 'trajectory_actions', '/arm7', '/arm7' + SEND_GOAL)
+    assert '/arm7/gripper_controller/gripper_cmd/_action/send_goal' in srvs
     proc.stop()
 
 
@@ -105,8 +108,8 @@ def test_ns_and_relative_remap_move_every_name(probe, processes):
     for name, proc in procs.items():
         _wait_node(probe, '/other', name, proc)
     seen = {}
-    ready = {'sim_driver': '/other/reset', 'ik_service': '/other/ik/path_request',
-             'trajectory_server': '/other/trajectory/cancel'}
+    ready = {'sim_driver': '/other/reset', 'ik_service': '/other/compute_cartesian_path',
+             'trajectory_server': '/other/trajectory/feedback'}
     for name in NODES:
         pubs, subs, srvs = _names(probe, name, '/other', ready[name])
         seen[name] = (pubs, subs, srvs)
@@ -118,8 +121,9 @@ def test_ns_and_relative_remap_move_every_name(probe, processes):
     assert '/other/js' in seen['sim_driver'][0]
     assert '/other/js' in seen['ik_service'][1] and '/other/js' in seen['trajectory_server'][1]
     assert {'/other/torque_enable', '/other/reset'} <= seen['sim_driver'][2]
-    assert '/other/trajectory/cancel' in seen['trajectory_server'][2]
-    assert {'/other/ik/request', '/other/ik/path_request'} <= seen['ik_service'][1]
+    assert {'/other/compute_ik', '/other/compute_cartesian_path'} <= seen['ik_service'][2]
+    assert '/other' + SEND_GOAL in _names(probe, 'trajectory_actions', '/other',
+                                          '/other' + SEND_GOAL)[2]
     frames = []
     sub = probe.create_subscription(PoseStamped, '/other/ee_pose',
                                     lambda m: frames.append(m.header.frame_id), 10)
@@ -153,8 +157,9 @@ def test_two_robots_side_by_side_by_namespace_alone(ros_ctx, spinner, probe, pro
         p.position.x, p.position.y, p.position.z = 0.20, -0.05 + 0.02 * k, 0.15
         p.orientation.w = 0.0
         poses.append(p)
-    path, status = ik1.path_reply(ik1.request_path(poses, 'arm1/base_link'), 30.0)
-    assert status.message == 'solved', status.message
+    res = ik1.reply(ik1.request_path(poses, 'arm1/base_link'), 30.0)
+    assert res.success and res.message == 'solved', res.message
+    path = res.trajectory
     times = [pt.time_from_start.sec + pt.time_from_start.nanosec * 1e-9 for pt in path.points]
     assert times[0] > 0 and all(b > a for a, b in zip(times, times[1:])), times
     for a, b, ta, tb in zip(path.points, path.points[1:], times, times[1:]):

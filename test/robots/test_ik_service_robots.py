@@ -1,25 +1,24 @@
 """
 The ik_service answers for every robot_model: one real node per robot over DDS, all at once.
 
-Each IkServiceNode runs with ``robot_model:=<name>`` and ``robot_name:=<name>`` (so its topics
-live under ``/<name>/ik/...``). A client sends full-pose requests built from the FK of random
-in-limit configurations, plus one orientation-free request (all-zero quaternion), and checks
-that every reply carries the model's joint names and a configuration that reproduces the
+Each IkServiceNode runs with ``robot_model:=<name>`` and ``robot_name:=<name>`` (so its service
+is ``/<name>/compute_ik``). A client calls it with full poses built from the FK of random
+in-limit configurations, plus one orientation-free target (all-zero quaternion), and checks
+that every response carries the model's joint names and a configuration that reproduces the
 target (1e-9; on 4-DOF arms in the default 'pitch' mode: position and tool x axis) within the
 joint limits.
 """
-import threading
 import time
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
 from px100_control.kinematics.rotations import matrix_to_quaternion
 from px100_control.models.registry import available_robots, load_robot
+from px100_control.ros.ik_services import SERVICE_QOS
+from px100_control_msgs.srv import ComputeIK
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import JointState
 
 pytestmark = pytest.mark.ros
 
@@ -27,31 +26,21 @@ ROBOTS = available_robots()
 # arms whose reduced 'pitch' semantics do not describe their orientation: answer full poses
 STRICT = {'rrrp', 'rrrr'}
 PER_ROBOT = 3
-QOS = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
 
 
 class _Client(Node):
-    """Publish ik/request for every robot and collect ik/solution replies by stamp."""
+    """A compute_ik client of every robot."""
 
     def __init__(self, **kwargs):
         super().__init__('test_robots_ik_client', **kwargs)
-        self.lock = threading.Lock()
-        self.replies = {}
-        self.pubs = {}
-        for name in ROBOTS:
-            self.pubs[name] = self.create_publisher(PoseStamped, f'/{name}/ik/request', QOS)
-            self.create_subscription(JointState, f'/{name}/ik/solution',
-                                     lambda msg, n=name: self._on_reply(n, msg), QOS)
-
-    def _on_reply(self, name, msg):
-        with self.lock:
-            self.replies[(name, msg.header.stamp.sec, msg.header.stamp.nanosec)] = msg
+        self.clients_by_robot = {name: self.create_client(ComputeIK, f'/{name}/compute_ik',
+                                                          qos_profile=SERVICE_QOS)
+                                 for name in ROBOTS}
 
 
-def _request(T, stamp_ns: int, frame: str, orientation_free: bool = False) -> PoseStamped:
+def _request(T, frame: str, orientation_free: bool = False) -> ComputeIK.Request:
     msg = PoseStamped()
     msg.header.frame_id = frame
-    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
     msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = (float(v) for v in T[:3, 3])
     if not orientation_free:
         x, y, z, w = matrix_to_quaternion(T[:3, :3])
@@ -60,7 +49,7 @@ def _request(T, stamp_ns: int, frame: str, orientation_free: bool = False) -> Po
     else:
         msg.pose.orientation.x = msg.pose.orientation.y = 0.0
         msg.pose.orientation.z = msg.pose.orientation.w = 0.0
-    return msg
+    return ComputeIK.Request(target=msg)
 
 
 def _wait(predicate, timeout):
@@ -84,25 +73,27 @@ def test_ik_service_answers_every_robot_model(rclpy_context, spin_node):
         nodes.append(IkServiceNode(context=rclpy_context, parameter_overrides=params))
     client = _Client(context=rclpy_context)
     spin_node(*nodes, client)
-    assert _wait(lambda: all(p.get_subscription_count() > 0 for p in client.pubs.values()), 30)
+    assert _wait(lambda: all(c.service_is_ready()
+                             for c in client.clients_by_robot.values()), 30)
     rng = np.random.default_rng(77)
     expected = {}
-    stamp = time.time_ns()
     for name in ROBOTS:
         m = load_robot(name)
         frame = f'{name}/{m.base_frame}'
         for i, q in enumerate(m.random_configurations(PER_ROBOT + 1, rng=rng)):
-            stamp += 1
             free = i == PER_ROBOT
             T = m.fk(q)
-            client.pubs[name].publish(_request(T, stamp, frame, orientation_free=free))
-            expected[(name, *divmod(stamp, 1_000_000_000))] = (T, free)
-    assert _wait(lambda: len(client.replies) >= len(expected), 120), (
-        f'{len(client.replies)} of {len(expected)} replies; missing '
-        f'{sorted({k[0] for k in expected if k not in client.replies})}')
-    for key, (T, free) in expected.items():
+            future = client.clients_by_robot[name].call_async(
+                _request(T, frame, orientation_free=free))
+            expected[(name, i)] = (T, free, future)
+    assert _wait(lambda: all(f.done() for _, _, f in expected.values()), 120), (
+        'no response from ' + str(sorted({k[0] for k, v in expected.items()
+                                          if not v[2].done()})))
+    for key, (T, free, future) in expected.items():
         m = load_robot(key[0])
-        msg = client.replies[key]
+        res = future.result()
+        msg = res.solution
+        assert res.success, (key, res.message)
         assert list(msg.name) == list(m.joint_names), key
         assert len(msg.position) == m.dof, (key, 'no solution')
         q = np.array(msg.position)

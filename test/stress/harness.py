@@ -4,15 +4,16 @@ Stress harness: the real px100 nodes as processes, a probe node that fuzzes and 
 - :class:`Graph` starts ``sim_driver``, ``ik_service`` and ``trajectory_server`` (or any other
   executable) as child processes, restarts the ones that died and counts the deaths.
 - :class:`Probe` is one rclpy node in its own context and executor thread. It publishes to every
-  input topic, calls every service, and watches every output: each ``joint_states`` and
-  ``commands/joint_setpoints`` message is checked (known, unique names; lengths; finite values;
-  positions within the URDF limits; setpoint velocities within the velocity limits) and the
-  receive times give publish rates. Setpoints the probe itself published (fuzz input to the
-  driver) are recognised by their content and not counted as the nodes' output.
+  input topic, calls every service and the trajectory action, and watches every output: each
+  ``joint_states`` and ``commands/joint_setpoints`` message is checked (known, unique names;
+  lengths; finite values; positions within the URDF limits; setpoint velocities within the
+  velocity limits) and the receive times give publish rates. Setpoints the probe itself
+  published (fuzz input to the driver) are recognised by their content and not counted as the
+  nodes' output.
 - :func:`fuzz` drives one hypothesis campaign: each generated message is sent, then the harness
-  waits for the node's answer to it (ik/status by request id, a trajectory/status naming the goal,
-  the service response, or the driver's next joint_states) before the next one, so a failure is
-  pinned on the input that caused it and hypothesis can shrink it.
+  waits for the node's answer to it (the service response, the action status naming the goal, or
+  the driver's next joint_states) before the next one, so a failure is pinned on the input that
+  caused it and hypothesis can shrink it.
 
 Units: s, rad, m. Everything here talks to the nodes over DDS only (the public contract).
 """
@@ -33,18 +34,23 @@ from typing import Callable, Dict, List, Optional
 
 from action_msgs.msg import GoalStatusArray
 from action_msgs.srv import CancelGoal
+from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseArray, PoseStamped
+from geometry_msgs.msg import PoseStamped
 from px100_control.ros.common import make_executor
+from px100_control.ros.ik_services import SERVICE_QOS
+from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
 from rcl_interfaces.srv import (GetParameters, ListParameters, SetParameters,
                                 SetParametersAtomically)
 import rclpy
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (DurabilityPolicy, qos_profile_action_status_default, QoSProfile,
+                       ReliabilityPolicy)
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory
 
 #: the environment mark of a process shared by the stress modules (package scope):
 #: test/conftest.py stops any other process a test module leaves running
@@ -54,6 +60,7 @@ LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                      reliability=ReliabilityPolicy.RELIABLE)
 RELIABLE = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 SENSOR = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+ARM_ACTION = 'arm_controller/follow_joint_trajectory'
 
 
 def stress_size(reduced: int, full: int = 10_000) -> int:
@@ -409,11 +416,7 @@ class Probe:
             self.rates[name] = WatchedRates(os.path.join(self._watcher_dir, f'{name}.f64'))
         #: the watcher's own 100 Hz heartbeat: its gaps are stalls of the machine, not a node's
         self.heartbeat = WatchedRates(os.path.join(self._watcher_dir, 'heartbeat.f64'))
-        self.ik_status: Dict[str, List[DiagnosticStatus]] = defaultdict(list)
-        self.ik_solutions: Dict[str, List[JointState]] = defaultdict(list)
-        self.path_solutions: Dict[str, List[JointTrajectory]] = defaultdict(list)
-        #: status per goal id: 'sec.nanosec' (a goal on trajectory/goal) or an action goal's
-        #: UUID in hex (also its /diagnostics hardware_id)
+        #: status per action goal id: its UUID in hex (also its /diagnostics hardware_id)
         self.goal_status: Dict[str, int] = {}
         self.goal_history: Dict[str, List[int]] = defaultdict(list)
         self.status_msgs = 0
@@ -433,32 +436,35 @@ class Probe:
                               RELIABLE)
         n.create_subscription(JointState, t('trajectory/feedback'), self._on_feedback, RELIABLE)
         n.create_subscription(PoseStamped, t('ee_pose'), self._on_ee_pose, SENSOR)
-        n.create_subscription(GoalStatusArray, t('trajectory/status'), self._on_status, LATCHED)
-        # the client's goals are the trajectory action's: their statuses are on its status topic
-        n.create_subscription(GoalStatusArray,
-                              t('arm_controller/follow_joint_trajectory/_action/status'),
-                              self._on_action_status, LATCHED)
-        n.create_subscription(DiagnosticStatus, t('ik/status'), self._on_ik_status, RELIABLE)
-        n.create_subscription(JointState, t('ik/solution'), self._on_ik_solution, RELIABLE)
-        n.create_subscription(JointTrajectory, t('ik/path_solution'), self._on_path_solution,
-                              RELIABLE)
+        # goals are the trajectory action's: their statuses are on its status topic
+        n.create_subscription(GoalStatusArray, t(ARM_ACTION + '/_action/status'),
+                              self._on_status, qos_profile_action_status_default)
         n.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, RELIABLE)
         self.pub_setpoints = n.create_publisher(JointState, t('commands/joint_setpoints'),
                                                 RELIABLE)
         self.pub_joint_states = n.create_publisher(JointState, t('joint_states'), RELIABLE)
-        self.pub_ik = n.create_publisher(PoseStamped, t('ik/request'), RELIABLE)
-        self.pub_path = n.create_publisher(PoseArray, t('ik/path_request'), RELIABLE)
-        self.pub_goal = n.create_publisher(JointTrajectory, t('trajectory/goal'), RELIABLE)
+        self.cli_ik = n.create_client(ComputeIK, t('compute_ik'), qos_profile=SERVICE_QOS)
+        self.cli_path = n.create_client(ComputeCartesianPath, t('compute_cartesian_path'),
+                                        qos_profile=SERVICE_QOS)
+        # rclpy 7.1's EventsExecutor does not serve action clients: the action client lives on
+        # a helper node spun by a SingleThreadedExecutor (as the client's, client/calls.py)
+        self.action_node = Node(node_name + '_actions', context=self.ctx)
+        self.arm = ActionClient(self.action_node, FollowJointTrajectory, t(ARM_ACTION))
+        self.action_executor = SingleThreadedExecutor(context=self.ctx)
+        self.action_executor.add_node(self.action_node)
         self.cli_torque = n.create_client(SetBool, t('sim/torque_enable'))
         self.cli_reset = n.create_client(Trigger, t('reset'))
-        self.cli_cancel = n.create_client(CancelGoal, t('trajectory/cancel'))
+        self.cli_cancel = n.create_client(CancelGoal, t(ARM_ACTION + '/_action/cancel_goal'))
         self._param_clients = {}
-        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread = threading.Thread(target=self._spin, args=(self.executor,), daemon=True)
         self.thread.start()
+        self.action_thread = threading.Thread(target=self._spin, args=(self.action_executor,),
+                                              daemon=True)
+        self.action_thread.start()
 
-    def _spin(self) -> None:
+    def _spin(self, executor) -> None:
         while self._spinning.is_set() and self.ctx.ok():
-            self.executor.spin_once(timeout_sec=0.05)
+            executor.spin_once(timeout_sec=0.05)
 
     def topic(self, name: str) -> str:
         """Return the robot topic ``/<robot_name>/<name>``."""
@@ -479,7 +485,10 @@ class Probe:
         shutil.rmtree(self._watcher_dir, ignore_errors=True)
         self._spinning.clear()
         self.thread.join(timeout=5.0)
+        self.action_thread.join(timeout=5.0)
         self.executor.shutdown(timeout_sec=2.0)
+        self.action_executor.shutdown(timeout_sec=2.0)
+        self.action_node.destroy_node()
         self.node.destroy_node()
         self.ctx.try_shutdown()
 
@@ -527,38 +536,15 @@ class Probe:
         if not _finite([p.x, p.y, p.z, o.x, o.y, o.z, o.w]):
             self._violation('ee_pose', ['non-finite pose'], msg)
 
-    def _on_action_status(self, msg: GoalStatusArray) -> None:
-        self._on_status(msg, action=True)
-
-    def _on_status(self, msg: GoalStatusArray, action: bool = False) -> None:
+    def _on_status(self, msg: GoalStatusArray) -> None:
         with self.cond:
             self.status_msgs += 1
             for s in msg.status_list:
-                gid = stamp_text(s.goal_info.stamp)
-                if action:
-                    gid = bytes(s.goal_info.goal_id.uuid).hex()
+                gid = bytes(s.goal_info.goal_id.uuid).hex()
                 self.status_seen_goals[gid] = self.status_msgs
                 if self.goal_status.get(gid) != s.status:
                     self.goal_history[gid].append(s.status)
                 self.goal_status[gid] = s.status
-            self.cond.notify_all()
-
-    def _on_ik_status(self, msg: DiagnosticStatus) -> None:
-        with self.cond:
-            self.ik_status[msg.hardware_id].append(msg)
-            self.cond.notify_all()
-
-    def _on_ik_solution(self, msg: JointState) -> None:
-        with self.cond:
-            self.ik_solutions[stamp_text(msg.header.stamp)].append(msg)
-            self.cond.notify_all()
-        pos = list(msg.position)
-        if pos and not _finite(pos):
-            self._violation('ik/solution', ['non-finite solution'], msg)
-
-    def _on_path_solution(self, msg: JointTrajectory) -> None:
-        with self.cond:
-            self.path_solutions[stamp_text(msg.header.stamp)].append(msg)
             self.cond.notify_all()
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
@@ -594,9 +580,9 @@ class Probe:
                                    and self.cli_torque.service_is_ready()
                                    and self.cli_reset.service_is_ready()
                                    and self.pub_setpoints.get_subscription_count() > 0),
-            'ik_service': lambda: (self.pub_ik.get_subscription_count() > 0
-                                   and self.pub_path.get_subscription_count() > 0),
-            'trajectory_server': lambda: (self.pub_goal.get_subscription_count() > 0
+            'ik_service': lambda: (self.cli_ik.service_is_ready()
+                                   and self.cli_path.service_is_ready()),
+            'trajectory_server': lambda: (self.arm.server_is_ready()
                                           and self.cli_cancel.service_is_ready()),
         }
         pending = [n for n in nodes if n in checks]
@@ -625,6 +611,29 @@ class Probe:
         """Publish a setpoint as the probe (not checked as node output)."""
         self.own_setpoints.add(joint_state_key(msg))
         self.pub_setpoints.publish(msg)
+
+    def send_goal(self, goal, timeout: float):
+        """
+        Send a FollowJointTrajectory goal; return its ClientGoalHandle (None on timeout).
+
+        Sent from the executor's thread: rclpy 7.1.6's ActionClient registers a request's
+        future after sending it, so a reply taken in between is dropped (ros2/rclpy#1123).
+        """
+        task = self.action_executor.create_task(lambda: self.arm.send_goal_async(goal))
+        done = threading.Event()
+        task.add_done_callback(lambda _: task.result().add_done_callback(lambda _: done.set()))
+        if not done.wait(timeout):
+            return None
+        return task.result().result()
+
+    def goal_result(self, handle, timeout: float):
+        """Return the GetResult response of an accepted goal (None on timeout)."""
+        task = self.action_executor.create_task(handle.get_result_async)
+        done = threading.Event()
+        task.add_done_callback(lambda _: task.result().add_done_callback(lambda _: done.set()))
+        if not done.wait(timeout):
+            return None
+        return task.result().result()
 
     def call(self, client, request, timeout: float = 2.0):
         """Call a service; return the response or None on timeout."""

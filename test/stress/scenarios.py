@@ -16,7 +16,7 @@ from typing import Dict, List, Optional
 
 from action_msgs.msg import GoalStatus
 
-from .harness import Graph, Probe, script_env, stamp_text
+from .harness import Graph, Probe, script_env
 from .targets import goal_works, ik_works, level_of, SLEEP
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -64,7 +64,7 @@ def kill_driver_mid_trajectory(graph: Graph, probe: Probe, bot, sig=signal.SIGKI
     is still running when the driver dies); a move the server ended before the kill (tracking,
     on a starved CPU) is retried up to 3 times.
     :return: figures: client_return_s (kill -> the blocking call returned), client_ok,
-        client_reason, abort_s (kill -> ABORTED on trajectory/status), diagnostic (level and
+        client_reason, abort_s (kill -> ABORTED on the action's status), diagnostic (level and
         reason on /diagnostics), recovered (the same client's next move SUCCEEDED), recover_s
     """
     arm = bot.arm
@@ -241,34 +241,30 @@ def largest_goal(probe: Probe, points: int = 10_000, values: int = 10_000) -> di
     The goal is one point with ``values`` velocities (for one joint), repeated ``points`` times:
     8 * points * values bytes.
 
-    :return: figures: size [MB], seconds to publish and to the answer (a status or diagnostic
-        naming the goal), the reason given, the watcher's and the probe's longest joint_states
-        silence meanwhile [s]
+    :return: figures: size [MB], seconds to the goal response and to the answer (the goal's
+        result), the reason given, the watcher's and the probe's longest joint_states silence
+        meanwhile [s]
     """
     import array
 
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    from control_msgs.action import FollowJointTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint
     point = JointTrajectoryPoint(positions=[0.1], velocities=array.array('d', [0.5]) * values)
     point.time_from_start.sec = 1
-    msg = JointTrajectory(joint_names=['waist'], points=[point] * points)
-    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_700_000_000, time.monotonic_ns() % 10 ** 9
-    key = stamp_text(msg.header.stamp)
-    with probe.cond:
-        mark, diags = probe.status_seen_goals.get(key, 0), probe.diag_seen[key]
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = ['waist']
+    goal.trajectory.points = [point] * points
     t0 = time.monotonic()
-    probe.pub_goal.publish(msg)
+    handle = probe.send_goal(goal, 60.0)
     t1 = time.monotonic()
-    answered = probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark
-                              or probe.diag_seen[key] > diags, 60.0)
+    response = probe.goal_result(handle, 60.0) if handle is not None else None
     t2 = time.monotonic()
-    del msg, point
+    del goal, point
     time.sleep(0.5)
-    with probe.cond:
-        reasons = [d.message for d in probe.diagnostics if d.hardware_id == key]
     t3 = time.monotonic()
     return {'megabytes': round(8 * points * values / 1e6, 1), 'publish_s': round(t1 - t0, 3),
-            'answered': answered, 'answer_s': round(t2 - t0, 3),
-            'reason': reasons[-1] if reasons else None,
+            'answered': response is not None, 'answer_s': round(t2 - t0, 3),
+            'reason': response.result.error_string if response is not None else None,
             'joint_states_max_gap_s': round(
                 probe.rates['joint_states'].stats(t0, t3)['max_gap'], 3),
             'probe_joint_states_max_gap_s': round(
@@ -451,11 +447,11 @@ def recorder_sigkill(graph: Graph, probe: Probe, lim, bag_dir: str, run_s: float
     :return: figures: messages read back (streaming read and H4's reader after reindex), the
         time between the last message recorded and the kill (what the kill lost)
     """
-    topics = ['/px100/joint_states', '/px100/commands/joint_setpoints',
-              '/px100/trajectory/goal', '/px100/trajectory/status']
+    topics = ['/px100/joint_states', '/px100/commands/joint_setpoints', GOAL_EVENTS,
+              '/px100/arm_controller/follow_joint_trajectory/_action/status']
     rec = graph.start('record', '-o', bag_dir, *topics)
     deadline = time.monotonic() + 20.0
-    while probe.pub_goal.get_subscription_count() < 2 and time.monotonic() < deadline:
+    while probe.node.count_subscribers(GOAL_EVENTS) < 1 and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.5)
     t_start = time.time()
@@ -473,7 +469,8 @@ def recorder_sigkill(graph: Graph, probe: Probe, lim, bag_dir: str, run_s: float
         else []
     out['files'] = files
     out['bytes'] = sum(os.path.getsize(os.path.join(bag_dir, f)) for f in files)
-    msgs = read_bag_messages(bag_dir, topics)
+    # the goal events are recorded, not decoded here (mcap_ros2 cannot decode service events)
+    msgs = read_bag_messages(bag_dir, [t for t in topics if t != GOAL_EVENTS])
     js = msgs['/px100/joint_states']
     out['stream_read_messages'] = sum(len(v) for v in msgs.values())
     out['stream_read_joint_states'] = len(js)

@@ -20,14 +20,15 @@ def main(argv=None) -> int:
     opts = parser.parse_args(argv)
 
     from action_msgs.msg import GoalStatusArray
-    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from control_msgs.action import FollowJointTrajectory
+    from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import PoseStamped
+    from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
     import rclpy
     from rclpy.executors import ExternalShutdownException
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import String
-    from trajectory_msgs.msg import JointTrajectory
 
     rclpy.init()
     node = rclpy.create_node('slow_subscriber')
@@ -37,6 +38,8 @@ def main(argv=None) -> int:
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
+    ARM = 'arm_controller/follow_joint_trajectory'
+
     def slow(_msg):
         time.sleep(opts.sleep)
 
@@ -44,9 +47,11 @@ def main(argv=None) -> int:
         (JointState, 'joint_states', keep_all), (PoseStamped, 'ee_pose', keep_all),
         (JointState, 'commands/joint_setpoints', reliable),
         (JointState, 'trajectory/feedback', keep_all),
-        (GoalStatusArray, 'trajectory/status', latched),
-        (JointState, 'ik/solution', keep_all), (DiagnosticStatus, 'ik/status', keep_all),
-        (JointTrajectory, 'ik/path_solution', reliable), (String, 'robot_description', latched),
+        (GoalStatusArray, f'{ARM}/_action/status', latched),
+        (FollowJointTrajectory.Impl.FeedbackMessage, f'{ARM}/_action/feedback', keep_all),
+        (ComputeIK.Event, 'compute_ik/_service_event', keep_all),
+        (ComputeCartesianPath.Event, 'compute_cartesian_path/_service_event', reliable),
+        (String, 'robot_description', latched),
     ]
     for msg_type, name, qos in subs:
         node.create_subscription(msg_type, f'{ns}/{name}', slow, qos)

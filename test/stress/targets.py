@@ -11,35 +11,45 @@ import time
 from typing import Callable, Dict, List, Optional
 
 from action_msgs.msg import GoalStatus
-from builtin_interfaces.msg import Duration, Time
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from hypothesis import strategies as st
+from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
 from rcl_interfaces.msg import Parameter, ParameterType
 from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 from std_srvs.srv import SetBool, Trigger
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectoryPoint
 
 from . import strategies as S
-from .harness import Limits, Probe, stamp_text
+from .harness import Limits, Probe
 
 TERMINAL = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_CANCELED, GoalStatus.STATUS_ABORTED)
-#: request ids of the harness's own valid requests live at this sec (fuzz rarely hits it)
-PROBE_SEC = 1_234_567
-_probe_counter = [0]
 #: reduced-form sizes per target (PX100_STRESS=full: 10,000 each)
 REDUCED = {
     'commands/joint_setpoints': 200, 'joint_states': 150, 'torque_enable': 100, 'reset': 60,
-    'ik/request': 300, 'ik/path_request': 150, 'trajectory/goal': 100,
-    'trajectory/cancel': 200, '/sim_driver/set_parameters': 80,
+    'compute_ik': 300, 'compute_cartesian_path': 150, 'follow_joint_trajectory': 100,
+    'follow_joint_trajectory/cancel_goal': 200, '/sim_driver/set_parameters': 80,
     '/ik_service/set_parameters': 60, '/trajectory_server/set_parameters': 60,
 }
 
 
-def probe_stamp() -> Time:
-    """Return a fresh stamp for a valid probe request (unique within the run)."""
-    _probe_counter[0] += 1
-    return Time(sec=PROBE_SEC, nanosec=_probe_counter[0])
+def goal_of(trajectory) -> FollowJointTrajectory.Goal:
+    """Return the FollowJointTrajectory goal of a JointTrajectory."""
+    return FollowJointTrajectory.Goal(trajectory=trajectory)
+
+
+def send_goal_and_wait(probe: Probe, goal, bound: float):
+    """Send a goal; return its UUID in hex once a status names it (None: no answer in bound)."""
+    with probe.cond:
+        mark = probe.status_msgs
+    handle = probe.send_goal(goal, bound)
+    if handle is None or not handle.accepted:
+        return None
+    key = bytes(handle.goal_id.uuid).hex()
+    ok = probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark, bound)
+    return key if ok else None
 
 
 @dataclass
@@ -68,7 +78,7 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
     """
     limits = lim.position_limits()
     vel = lim.velocity_ranges()
-    sent_goals: List[Time] = []
+    sent_goals: List[bytes] = []
 
     def send_setpoint(msg):
         probe.publish_setpoint(msg)
@@ -81,40 +91,26 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
         probe.wait_joint_states(1, 0.5)
         return None
 
-    def send_ik(msg):
-        key = stamp_text(msg.header.stamp)
-        with probe.cond:
-            before = _count(probe.ik_status, key)
-        probe.pub_ik.publish(msg)
-        return probe.wait_for(lambda: _count(probe.ik_status, key) > before, 3.0)
+    def send_ik(req):
+        res = probe.call(probe.cli_ik, req, 3.0)
+        if res is not None and not all(math.isfinite(x) for x in res.solution.position):
+            probe._violation('compute_ik', ['non-finite solution'], res)
+        return res is not None
 
-    def send_path(msg):
-        key = stamp_text(msg.header.stamp)
-        with probe.cond:
-            before = _count(probe.ik_status, key) + _count(probe.path_solutions, key)
-        probe.pub_path.publish(msg)
-        bound = 3.0 + 0.01 * len(msg.poses)
-        return probe.wait_for(
-            lambda: _count(probe.ik_status, key) + _count(probe.path_solutions, key) > before,
-            bound)
+    def send_path(req):
+        return probe.call(probe.cli_path, req, 3.0 + 0.01 * len(req.waypoints.poses)) is not None
 
-    def send_goal(msg):
-        # answered: a status naming the goal id, or (a goal reusing the id of the running one,
-        # which keeps its status) a diagnostic naming it
-        key = stamp_text(msg.header.stamp)
-        with probe.cond:
-            mark = probe.status_msgs
-            diags = probe.diag_seen[key]
-        # a goal of huge arrays (up to 10,000 points x 10,000 values: 800 MB) takes seconds to
-        # serialize and deliver before the server sees it (measured here: 800 MB answered after
-        # 5.1 s, of which the server's part is 30 ms), so the bound grows by 1 s per 100 MB
+    def send_goal(goal):
+        # answered: the action status names the goal. A goal of huge arrays (up to 10,000
+        # points x 10,000 values: 800 MB) takes seconds to serialize and deliver before the
+        # server sees it, so the bound grows by 1 s per 100 MB
         values = sum(len(p.positions) + len(p.velocities) + len(p.accelerations)
-                     + len(p.effort) for p in msg.points)
-        probe.pub_goal.publish(msg)
-        sent_goals.append(msg.header.stamp)
-        del sent_goals[:-50]
-        return probe.wait_for(lambda: probe.status_seen_goals.get(key, 0) > mark
-                              or probe.diag_seen[key] > diags, 3.0 + 8e-8 * values)
+                     + len(p.effort) for p in goal.trajectory.points)
+        key = send_goal_and_wait(probe, goal, 3.0 + 8e-8 * values)
+        if key is not None:
+            sent_goals.append(bytes.fromhex(key))
+            del sent_goals[:-50]
+        return key is not None
 
     def send_cancel(req):
         return probe.call(probe.cli_cancel, req, 3.0) is not None
@@ -164,14 +160,16 @@ def make_targets(probe: Probe, lim: Limits, params: Dict[str, List[str]] = None,
                                 with_setpoint(probe.cli_torque)),
         'reset': Target('reset', 'sim_driver', st.tuples(S.trigger_requests(), maybe_setpoint),
                         with_setpoint(probe.cli_reset)),
-        'ik/request': Target('ik/request', 'ik_service', S.pose_stampeds(robot_name), send_ik),
-        'ik/path_request': Target('ik/path_request', 'ik_service', S.pose_arrays(robot_name),
-                                  send_path),
-        'trajectory/goal': Target(
-            'trajectory/goal', 'trajectory_server',
-            S.joint_trajectories(lim.arm, limits, vel, robot_name), send_goal),
-        'trajectory/cancel': Target(
-            'trajectory/cancel', 'trajectory_server',
+        'compute_ik': Target('compute_ik', 'ik_service', S.pose_stampeds(robot_name).map(
+            lambda msg: ComputeIK.Request(target=msg)), send_ik),
+        'compute_cartesian_path': Target(
+            'compute_cartesian_path', 'ik_service', S.pose_arrays(robot_name).map(
+                lambda msg: ComputeCartesianPath.Request(waypoints=msg)), send_path),
+        'follow_joint_trajectory': Target(
+            'follow_joint_trajectory', 'trajectory_server',
+            S.joint_trajectories(lim.arm, limits, vel, robot_name).map(goal_of), send_goal),
+        'follow_joint_trajectory/cancel_goal': Target(
+            'follow_joint_trajectory/cancel_goal', 'trajectory_server',
             S.cancel_requests(known_stamps=()), send_cancel),
     }
     for node, names in (params or {}).items():
@@ -230,22 +228,16 @@ def level_of(status: DiagnosticStatus) -> int:
 
 
 def ik_works(probe: Probe, model, timeout: float = 3.0) -> str:
-    """Send a reachable IK request; return '' if solved, else what went wrong."""
+    """Call compute_ik for a reachable target; return '' if solved, else what went wrong."""
     from px100_control.ros.conversions import matrix_to_pose
     q = [0.3, -0.2, 0.4, 0.2][:model.dof]
-    msg = PoseStamped()
-    msg.header.stamp = probe_stamp()
-    msg.header.frame_id = f'{probe.ns.strip("/")}/base_link'
-    msg.pose = matrix_to_pose(model.fk(q))
-    key = stamp_text(msg.header.stamp)
-    probe.pub_ik.publish(msg)
-    if not probe.wait_for(lambda: key in probe.ik_status and key in probe.ik_solutions,
-                          timeout):
-        return f'no ik/status + ik/solution for a reachable request within {timeout} s'
-    st = probe.ik_status[key][-1]
-    sol = probe.ik_solutions[key][-1]
-    if level_of(st) != 0 or not sol.position:
-        return f'reachable request not solved: level {st.level} {st.message!r}'
+    target = PoseStamped(pose=matrix_to_pose(model.fk(q)))
+    target.header.frame_id = f'{probe.ns.strip("/")}/base_link'
+    res = probe.call(probe.cli_ik, ComputeIK.Request(target=target), timeout)
+    if res is None:
+        return f'no compute_ik response for a reachable target within {timeout} s'
+    if not res.success or not res.solution.position:
+        return f'reachable target not solved: {res.message!r}'
     return ''
 
 
@@ -266,17 +258,18 @@ def goal_works(probe: Probe, lim: Limits, target=GENTLE, duration: float = 2.0,
     endings are counted in ``probe.tracking_aborts`` and reported, not failed. Any other ABORTED
     reason for this valid goal (refused as invalid...) is a failure.
     """
-    msg = JointTrajectory()
-    msg.header.stamp = probe_stamp()
-    msg.joint_names = list(lim.arm)
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = list(lim.arm)
     p = JointTrajectoryPoint()
     p.positions = [float(v) for v in target]
     p.time_from_start = Duration(sec=int(duration), nanosec=int((duration % 1) * 1e9))
-    msg.points = [p]
-    key = stamp_text(msg.header.stamp)
+    goal.trajectory.points = [p]
     with probe.cond:
         setpoints_before = probe.setpoints_seen
-    probe.pub_goal.publish(msg)
+    handle = probe.send_goal(goal, timeout)
+    if handle is None or not handle.accepted:
+        return f'valid goal not accepted within {timeout} s: {handle}'
+    key = bytes(handle.goal_id.uuid).hex()
     if not probe.wait_for(lambda: probe.goal_status.get(key) in TERMINAL, timeout):
         return f'valid goal not finished within {timeout} s (status ' \
                f'{probe.goal_history.get(key)})'

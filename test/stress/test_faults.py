@@ -2,7 +2,7 @@
 Injected faults: nodes killed mid-work, the recorder SIGKILLed, subscribers that never read.
 
 - sim_driver killed (SIGKILL and SIGINT) while the client waits for a move: the goal ends
-  ABORTED with a reason on trajectory/status and /diagnostics, the client call returns False
+  ABORTED with a reason on the action's status and /diagnostics, the client call returns False
   with a clear reason, both within 2 s; sim_driver restarted: the same client moves again.
 - ik_service killed: the client's IK call fails with a message naming ik_service within a
   bound; restarted: IK works again.

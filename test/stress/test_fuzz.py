@@ -1,11 +1,11 @@
 """
-Fuzz every subscribed topic and every service of sim_driver, ik_service and trajectory_server.
+Fuzz every input of sim_driver, ik_service and trajectory_server: topics, services, the action.
 
 For each input a hypothesis campaign (PX100_STRESS=full: 10,000 inputs; default: a reduced
 number so CI runs it) is sent to the real nodes running as processes. After every input: all
 processes alive, no NaN/inf/out-of-limit/unknown joint on ``commands/joint_setpoints``,
-``trajectory/feedback`` or ``joint_states``; the input got its answer (ik/status, a
-trajectory/status entry, a service response). After each campaign: joint_states and ee_pose kept
+``trajectory/feedback`` or ``joint_states``; the input got its answer (a service response,
+the action status naming the goal). After each campaign: joint_states and ee_pose kept
 their rate, and the nodes still serve valid requests.
 """
 import json
@@ -95,7 +95,7 @@ def test_fuzz_target(name, graph, targets, module_probe, limits, model):
     assert not camp.unanswered, \
         f'{len(camp.unanswered)} of {camp.tried} inputs got no answer (slowest answers: ' \
         f'{camp.slowest}), e.g. {camp.unanswered[:3]}'
-    problems = _still_working(module_probe, limits, model, goal=name.startswith('traj'))
+    problems = _still_working(module_probe, limits, model, goal=name.startswith('follow'))
     assert not problems, f'after fuzzing {name}: {problems}'
     assert not module_probe.violations, module_probe.violations[:3]
 

@@ -89,9 +89,10 @@ def test_viewer_faults_never_stop_the_nodes_in_its_process(rclpy_context, spin_n
         assert watcher.wait_goal(key, 60.0) == 'SUCCEEDED'
         assert abs(watcher.position('waist') - 0.4) < 0.05
         assert bringup.thread.is_alive()
-        # the viewer, which only shows the action's goals, is no second trajectory_server
+        # the viewer, which only shows the action's goals, is no second trajectory server (the
+        # trajectory_server's action node is)
         peers = live_peers(watcher, f'/{ns}')
-        assert peers['trajectory_servers'] == [f'/{ns}/trajectory_server'], peers
+        assert peers['trajectory_servers'] == [f'/{ns}/trajectory_actions'], peers
     finally:
         bringup.stop()
 
