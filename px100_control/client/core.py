@@ -551,7 +551,9 @@ class InterbotixRobotXSCore:
             for p in list(self._goals.values()):
                 p.reason = p.reason or 'robot_shutdown() was called'
                 p.event.set()
-        self.arm_action.close()
+        link = getattr(self, 'arm_action', None)   # None: interrupted before it was made
+        if link is not None:
+            link.close()
 
     # -------------------------------------------------------------- callbacks
     def _joint_state_cb(self, msg: JointState) -> None:

@@ -32,6 +32,7 @@ import sys
 import threading
 import time
 from typing import Dict, Optional
+import weakref
 
 from px100_control.ros.common import make_executor
 import rclpy
@@ -164,7 +165,13 @@ class SpinThread:
     callbacks already handed to a MultiThreadedExecutor's pool, which then fail ("cannot use
     Destroyable because destruction was requested"). Here the loop is spin_once() until an event
     is set; stop() ends the loop, drains the pool, and only then shuts the executor down.
+    A loop still running at interpreter exit is stopped then (:func:`stop_all`): a daemon
+    thread that wakes in rclpy's wait during finalization aborts the process (SIGABRT,
+    "terminate called without an active exception") instead of letting it exit.
     """
+
+    #: the loops started and not stopped yet
+    _running = weakref.WeakSet()
 
     def __init__(self, executor, name: str):
         self.executor = executor
@@ -173,8 +180,18 @@ class SpinThread:
 
     def start(self) -> 'SpinThread':
         """Start spinning."""
+        SpinThread._running.add(self)
         self.thread.start()
         return self
+
+    @classmethod
+    def stop_all(cls, timeout: float = 2.0) -> None:
+        """Stop every loop still running (at exit: an owner interrupted before it stopped it)."""
+        for spin in list(cls._running):
+            try:
+                spin.stop(timeout)
+            except Exception:  # noqa: B902 - the context is gone already: the loop has ended
+                pass
 
     def is_alive(self) -> bool:
         """Return True while the spin loop runs."""
@@ -192,6 +209,7 @@ class SpinThread:
 
     def stop(self, timeout: float = 5.0) -> None:
         """Stop the loop, wait for running callbacks, shut the executor down."""
+        SpinThread._running.discard(self)
         self._stop.set()
         if self.thread.is_alive():
             self.thread.join(timeout=timeout)
@@ -374,6 +392,7 @@ def _at_exit() -> None:
             robot_shutdown()
         except Exception:  # noqa: B902 - interpreter is exiting
             pass
+    SpinThread.stop_all()
 
 
 atexit.register(_at_exit)
