@@ -18,7 +18,7 @@ pytestmark = pytest.mark.ros
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 #: a client component's spin loop, left running by an owner interrupted before it stopped it
-LEFT_SPINNING = '''
+LEFT_SPINNING = """
 import sys
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
@@ -30,7 +30,7 @@ executor.add_node(node)
 SpinThread(executor, 'left_spinning').start()
 print('spinning', flush=True)
 sys.exit(130)
-'''
+"""
 
 
 def test_a_spin_loop_left_running_does_not_abort_the_exit():
