@@ -66,6 +66,9 @@ def _answered_calls(bag_dir: str, ns: str) -> dict:
             topic = f'/{ns}/{service}/_service_event'
             conns = [c for c in reader.connections if c.topic == topic]
             requests, responses = {}, set()
+            if not conns:       # (rosbags reads every connection when given none)
+                out[what] = set()
+                continue
             for c, _, raw in reader.messages(conns):
                 event = reader.deserialize(raw, c.msgtype)
                 seq = event.info.sequence_number
