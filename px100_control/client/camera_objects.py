@@ -11,11 +11,14 @@ saturation (:func:`color_distance`: the lit render keeps the hue but washes the 
 out, 0.8 declared is ~0.55 seen), one cluster per object (an optimal assignment); a cluster
 farther than :data:`MAX_COLOR_DISTANCE` from every object (the arm, the fixtures) names
 nothing. The object's
-centre is the cluster's x, y and half its top's height (it rests on the table, z = 0).
+centre is the cluster's x, y and half its top's height (it rests on the table, z = 0); the
+filter reports the centre of each cluster's top face (``cluster_position:=top_face``), not the
+centroid of its points, which the sides the camera sees pull toward it (2-5 mm measured).
 
 With ``start_nodes`` it starts what the in-process bringup lacks, each as its own process:
 ``camera`` (``publish_pose:=false``: only the ArmTag says where it is; its pose may be moved
-from the scene's), ``state_publisher`` (the arm's /tf, for the tag's pose) and ``pc_filter``.
+from the scene's), ``state_publisher`` (the arm's /tf, for the tag's pose) and ``pc_filter``
+(``cluster_position:=top_face``); a pc_filter already running has its parameter set.
 """
 import colorsys
 import time
@@ -39,6 +42,9 @@ GREY = 0.15
 CAMERA_START_TIMEOUT = 90.0
 #: the service that shows pc_filter is up
 FILTER_SERVICE = '/pc_filter/get_cluster_positions'
+FILTER_NODE = '/pc_filter/pointcloud_pipeline'
+#: what pc_filter reports as a cluster's position (see the module docstring)
+POSITION = 'top_face'
 
 
 def color_distance(declared: Sequence[float], seen: Sequence[float]) -> float:
@@ -105,12 +111,20 @@ class CameraObjects:
                            f'look_at:={list(camera_pose[1])}']
             args = ['--ros-args'] + [a for p in params for a in ('-p', p)]
             self.processes = [NodeProcess('camera', args), NodeProcess('state_publisher'),
-                              NodeProcess('pc_filter')]
+                              NodeProcess('pc_filter', ['--ros-args', '-p',
+                                                        f'cluster_position:={POSITION}'])]
         try:
             if start_nodes:     # a loaded machine starts them slower than the client waits
                 self._wait(lambda: FILTER_SERVICE in dict(
                     bot.core.get_node().get_service_names_and_types()), 'pc_filter services')
             self.pcl = InterbotixPointCloudInterface(node_inf=bot.core)
+            if not start_nodes:
+                problem = bot.core.set_remote_parameters(
+                    FILTER_NODE, {'cluster_position': POSITION}, timeout=10.0)
+                if problem:
+                    bot.core.get_node().get_logger().warning(
+                        f'{FILTER_NODE}: cluster_position not set ({problem}): the clusters '
+                        'are centroids, pulled toward the camera by the sides it sees')
             self.armtag = InterbotixArmTagInterface(node_inf=bot.core)
         except Exception:
             self.close()
