@@ -46,6 +46,7 @@ def run_once(seed: int, jitter: float, out_dir: str, bag: bool = False,
         result = {'objects': [], 'error': (proc.stdout + proc.stderr)[-2000:]}
     result.update(exit_code=proc.returncode, wall_s=wall, seed=seed)
     if proc.returncode != 0:
+        result['output_head'] = proc.stdout[:3000]
         result['output_tail'] = (proc.stdout + proc.stderr)[-3000:]
     return result
 

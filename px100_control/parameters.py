@@ -436,6 +436,10 @@ PC_FILTER = NodeSchema('pointcloud_pipeline', (
     ParamSpec('enable_pipeline', 'bool', False, 'filter every cloud as it arrives (false, as '
               "Interbotix's pc_filter launch file: only when get_cluster_positions is called); "
               'the enable_pipeline service sets it'),
+    ParamSpec('cluster_position', 'string', 'centroid', "what a cluster's position is: "
+              "'centroid' (of its points, as Interbotix) or 'top_face' (the centre of its top "
+              'face, not pulled toward the camera by the sides it sees)',
+              choices=('centroid', 'top_face')),
 ) + tuple(ParamSpec(f'{axis}_filter_{end}', 'double', default, f'crop box {end} {axis} in the '
                     'cloud frame [m]', low=-CROP_LIMIT, high=CROP_LIMIT)
           for axis, lo, hi in (('x', -0.25, 0.25), ('y', -0.25, 0.25), ('z', 0.25, 0.75))

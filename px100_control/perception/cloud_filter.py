@@ -5,7 +5,12 @@ The stages and parameters are those of Interbotix's ``pointcloud_pipeline`` (PCL
 crop box -> voxel grid -> RANSAC plane removal -> radius outlier removal -> Euclidean
 clusters. Each cluster reports its centroid (position and mean colour), the point nearest the
 camera along the optical axis (``min_z_point``: the top of an object seen from above) and its
-point count. Neighbour searches use scipy's cKDTree (a maintained k-d tree; PCL uses FLANN).
+point count; and, beyond Interbotix, the centre of its top face (``top_centre``: the centroid
+of its points within :data:`TOP_BAND` of its highest point above the fitted plane). A camera
+sees an object's top and the sides facing it, so the centroid is pulled toward the camera
+(measured 2-5 mm for the pick_place blocks 60 mm off the optical axis at 0.6 m); the top
+face's centre is not (within 2 mm). Neighbour searches use scipy's cKDTree (a maintained k-d
+tree; PCL uses FLANN).
 
 Input points are in the cloud's frame (the camera's optical frame: z forward), metres; colours
 are 0..255. Everything is deterministic given ``rng`` (RANSAC's samples).
@@ -93,14 +98,35 @@ def checked(p: FilterParams) -> FilterParams:
     return p
 
 
+#: depth [m] below a cluster's highest point (above the plane) that still counts as its top face:
+#: a voxel layer (the default leaf, 4 mm) and 4 sigma of the D415's depth noise at 0.6 m
+TOP_BAND = 0.004
+
+
 @dataclass(frozen=True)
 class Cluster:
-    """One object candidate: centroid [m] and mean colour (0..255), top point [m], size."""
+    """One object candidate: centroid [m], mean colour (0..255), top point [m], size, top face."""
 
     position: Tuple[float, float, float]
     color: Tuple[float, float, float]
     min_z_point: Tuple[float, float, float]
     num_points: int
+    top_centre: Tuple[float, float, float] = (math.nan, math.nan, math.nan)
+
+
+def top_face_centre(points: np.ndarray, plane: Optional[np.ndarray],
+                    band: float = TOP_BAND) -> np.ndarray:
+    """
+    Return the centroid [m] of the ``points`` within ``band`` of the highest one above ``plane``.
+
+    Height is the distance from the plane on the camera's side (the cloud frame's origin);
+    without a plane, the points nearest the camera along z are the top.
+    """
+    if plane is None:
+        height = -points[:, 2]
+    else:
+        height = (points @ plane[:3] + plane[3]) * (1.0 if plane[3] >= 0.0 else -1.0)
+    return points[height >= height.max() - band].mean(axis=0)
 
 
 @dataclass
@@ -227,5 +253,5 @@ def run_pipeline(points: np.ndarray, colors: np.ndarray, params: FilterParams,
         cp = rest[idx]
         top = cp[int(np.argmin(cp[:, 2]))]
         clusters.append(Cluster(tuple(cp.mean(axis=0)), tuple(rest_rgb[idx].mean(axis=0)),
-                                tuple(top), len(idx)))
+                                tuple(top), len(idx), tuple(top_face_centre(cp, plane))))
     return FilterResult(clusters, pts, rest, plane, '', rgb, rest_rgb)

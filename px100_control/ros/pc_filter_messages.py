@@ -40,12 +40,18 @@ def cloud_message(header: Header, points: np.ndarray, colors: np.ndarray) -> Poi
                                for name, off, dt, cnt in fields])
 
 
-def cluster_infos(clusters: Sequence[Cluster], frame: str) -> List[ClusterInfo]:
-    """Return one ClusterInfo per cluster (yaw 0: not estimated, as upstream)."""
+def cluster_infos(clusters: Sequence[Cluster], frame: str,
+                  top_face: bool = False) -> List[ClusterInfo]:
+    """
+    Return one ClusterInfo per cluster (yaw 0: not estimated, as upstream).
+
+    :param top_face: the position is the cluster's top-face centre, not its centroid
+    """
     out = []
     for c in clusters:
         info = ClusterInfo(frame_id=frame, num_points=int(c.num_points))
-        info.position.x, info.position.y, info.position.z = (float(v) for v in c.position)
+        info.position.x, info.position.y, info.position.z = (
+            float(v) for v in (c.top_centre if top_face else c.position))
         info.min_z_point.x, info.min_z_point.y, info.min_z_point.z = (
             float(v) for v in c.min_z_point)
         info.color = ColorRGBA(r=float(c.color[0]), g=float(c.color[1]), b=float(c.color[2]),
@@ -54,13 +60,15 @@ def cluster_infos(clusters: Sequence[Cluster], frame: str) -> List[ClusterInfo]:
     return out
 
 
-def object_markers(clusters: Sequence[Cluster], header: Header) -> List[Marker]:
-    """Return the centroid spheres (1 cm, the cluster's colour, lifetime 0.1 s)."""
+def object_markers(clusters: Sequence[Cluster], header: Header,
+                   top_face: bool = False) -> List[Marker]:
+    """Return the position spheres (1 cm, the cluster's colour, lifetime 0.1 s)."""
     out = []
     for k, c in enumerate(clusters):
         m = Marker(header=header, id=k, type=Marker.SPHERE, action=Marker.ADD,
                    lifetime=Duration(sec=0, nanosec=100_000_000))
-        m.pose.position.x, m.pose.position.y, m.pose.position.z = (float(v) for v in c.position)
+        m.pose.position.x, m.pose.position.y, m.pose.position.z = (
+            float(v) for v in (c.top_centre if top_face else c.position))
         m.pose.orientation.w = 1.0
         m.scale.x = m.scale.y = m.scale.z = 0.01
         m.color = ColorRGBA(r=c.color[0] / 255.0, g=c.color[1] / 255.0, b=c.color[2] / 255.0,

@@ -15,9 +15,12 @@ with its default ``filter_ns``; ``-r __ns:=/other`` moves it), so Interbotix's
   and reports OK on ``/diagnostics``;
 - ``get_cluster_positions`` (ClusterInfoArray): the clusters of the latest cloud (centroid,
   mean colour 0..255, the point of least z, point count; ``frame_id`` the cloud's frame),
-  largest first. Computed on demand when the pipeline is disabled or the parameters changed
-  since the last run; an empty list when no cloud came yet, the cloud is empty or unreadable,
-  or nothing is left in a stage (the reason logged, throttled);
+  largest first. With the parameter ``cluster_position:=top_face`` (not upstream; default
+  ``centroid``) the position is the centre of the cluster's top face instead
+  (:func:`px100_control.perception.cloud_filter.top_face_centre`). Computed on demand when
+  the pipeline is disabled or the parameters changed since the last run; an empty list when
+  no cloud came yet, the cloud is empty or unreadable, or nothing is left in a stage (the
+  reason logged, throttled);
 - ``enable_pipeline`` (std_srvs/SetBool): filter every cloud on arrival, or only on demand;
 - publishes ``pointcloud/filtered`` (after crop box + voxel grid), ``pointcloud/objects``
   (after plane and outlier removal), ``markers/objects`` (a sphere per cluster) and
@@ -82,6 +85,7 @@ class PcFilterNode(Node):
             raise InvalidInputError(f'pointcloud_pipeline parameters: {error}')
         self.add_post_set_parameters_callback(lambda params: self._reload())
         self._enabled = bool(self.get_parameter('enable_pipeline').value)
+        self._top_face = self.get_parameter('cluster_position').value == 'top_face'
         self._topic = (str(self.get_parameter('cloud_topic').value)
                        or default_cloud_topic(str(self.get_parameter('robot_name').value)))
         self._cloud = None
@@ -119,6 +123,7 @@ class PcFilterNode(Node):
     def _reload(self) -> None:
         self._params = self._read_params()
         self._enabled = bool(self.get_parameter('enable_pipeline').value)
+        self._top_face = self.get_parameter('cluster_position').value == 'top_face'
         self._stale = True
 
     # ------------------------------------------------------------------ services
@@ -182,9 +187,9 @@ class PcFilterNode(Node):
         if len(result.objects):
             self._pub_objects.publish(cloud_message(header, result.objects,
                                                     result.objects_rgb))
-        for marker in object_markers(result.clusters, header):
+        for marker in object_markers(result.clusters, header, self._top_face):
             self._pub_markers.publish(marker)
-        self._infos = cluster_infos(result.clusters, header.frame_id)
+        self._infos = cluster_infos(result.clusters, header.frame_id, self._top_face)
         if result.reason or not result.clusters:
             self._empty(result.reason or 'no cluster within cluster_min_size..cluster_max_size',
                         clear=False)

@@ -7,7 +7,8 @@ sampled at 2 mm), plus scattered outliers.
 import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.perception.cloud_filter import (euclidean_clusters, FilterParams,
-                                                   params_error, run_pipeline, voxel_grid)
+                                                   params_error, run_pipeline,
+                                                   top_face_centre, voxel_grid)
 import pytest
 
 STEP = 0.002
@@ -71,6 +72,27 @@ def test_two_boxes_give_two_clusters_at_their_centres():
         assert np.allclose(cluster.color, rgb, atol=1)
         assert cluster.min_z_point[2] == pytest.approx(TABLE_Z - height, abs=0.003)
     assert result.clusters[0].num_points >= result.clusters[1].num_points
+
+
+def test_top_face_centre_is_not_pulled_toward_the_side_the_camera_sees():
+    """Top and one side seen (the camera off to +x): centroid pulled to +x, top face not."""
+    cx, cy, size, height = 0.04, 0.0, 0.03, 0.03
+    x, y = _grid(cx - size / 2, cx + size / 2, cy - size / 2, cy + size / 2)
+    top = np.column_stack([x, y, np.full(len(x), TABLE_Z - height)])
+    ss, zz = np.meshgrid(np.arange(-size / 2, size / 2, STEP),
+                         np.arange(TABLE_Z - height, TABLE_Z, STEP))
+    side = np.column_stack([np.full(ss.size, cx + size / 2), cy + ss.ravel(), zz.ravel()])
+    tx, ty = _grid(-0.2, 0.2, -0.2, 0.2)
+    table = np.column_stack([tx, ty, np.full(len(tx), TABLE_Z)])
+    table = table[~((abs(tx - cx) < size / 2) & (abs(ty - cy) < size / 2))]
+    points = np.vstack([table, top, side])
+    colors = np.zeros((len(points), 3), dtype=np.uint8)
+    (cluster,) = run_pipeline(points, colors, PARAMS, np.random.default_rng(1)).clusters
+    assert cluster.position[0] - cx > 0.004                     # the side pulls the centroid
+    assert np.hypot(cluster.top_centre[0] - cx, cluster.top_centre[1] - cy) < 0.001
+    assert cluster.top_centre[2] == pytest.approx(TABLE_Z - height, abs=0.003)
+    no_plane = top_face_centre(np.vstack([top, side]), None)    # the side's top 4 mm count
+    assert np.hypot(no_plane[0] - cx, no_plane[1] - cy) < 0.0025
 
 
 def test_scattered_outliers_are_removed():

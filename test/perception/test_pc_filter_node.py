@@ -81,6 +81,25 @@ def test_clusters_of_a_published_cloud_within_2_mm(fresh):
     assert {tuple(c) for c in rgb} == {(220, 30, 30), (30, 200, 60)}
 
 
+def test_cluster_position_top_face_reports_each_top_face_centre(fresh):
+    """cluster_position:=top_face (not upstream): the position is the top face's centre."""
+    client, node = fresh
+    points, colors = float32_scene(TWO_BOXES)
+    expected = run_pipeline(points, colors, DEFAULTS, np.random.default_rng(0)).clusters
+    assert client.set_parameter('cluster_position', 'top_face').successful
+    try:
+        found = client.clusters_after(scene_cloud(TWO_BOXES), 2)
+        for info, ref in zip(found, expected):
+            np.testing.assert_allclose((info.position.x, info.position.y, info.position.z),
+                                       ref.top_centre, atol=1e-6)
+        refused = client.set_parameter('cluster_position', 'middle')
+        assert not refused.successful and 'cluster_position' in refused.reason, refused
+    finally:
+        assert client.set_parameter('cluster_position', 'centroid').successful
+    p = client.clusters()[0].position
+    np.testing.assert_allclose((p.x, p.y, p.z), expected[0].position, atol=1e-6)
+
+
 def test_set_filter_params_changes_the_result(fresh):
     client, node = fresh
     found = client.clusters_after(scene_cloud(TWO_BOXES), 2)

@@ -4,8 +4,9 @@ The README demo with ``--perception``: the objects found by camera, ArmTag and p
 Two seeded runs (objects jittered by up to 5 mm, the camera by up to 20 mm) as a user runs it
 (its own process; the demo starts camera, state_publisher and pc_filter): every object must end
 within 10 mm of its target, judged on the simulator's truth; the camera's view is printed (the
-ArmTag's transform, each object seen). The 20-run figure is
-benchmarks/bench_pick_place_perception.py. Naming clusters by colour is checked without ROS.
+ArmTag's transform, each object seen); the suite runs seed 100, PX100_PERCEPTION_E2E=1 also
+seed 101. The 20-run figure is benchmarks/bench_pick_place_perception.py. Naming clusters by
+colour is checked without ROS.
 """
 import json
 import os
@@ -37,13 +38,14 @@ def test_clusters_are_named_by_hue_and_saturation_not_by_the_grey_or_bluish_fixt
     assert name_clusters([], DECLARED) == {}
 
 
+#: more seeded runs with PX100_PERCEPTION_E2E=1 (the suite runs one: ~60 s on a loaded machine)
+MORE = pytest.mark.skipif(not os.environ.get('PX100_PERCEPTION_E2E'),
+                          reason='one seeded run in the suite; PX100_PERCEPTION_E2E=1 runs more')
+
+
 @pytest.mark.ros
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get('PX100_PERCEPTION_E2E'),
-                    reason='not passing yet (issue #29; PX100_PERCEPTION_E2E=1 runs it): seed '
-                           '100 placed 1 of 3, the clusters sit 3-6 mm toward the camera axis '
-                           '(their side faces) and a finger lands on the red cube')
-@pytest.mark.parametrize('seed', [100, 101])
+@pytest.mark.parametrize('seed', [100, pytest.param(101, marks=MORE)])
 def test_perception_demo_places_every_object(tmp_path, seed):
     """--perception with jittered objects and camera: 3/3 placed within 10 mm, what it saw."""
     result = tmp_path / 'outcome.json'

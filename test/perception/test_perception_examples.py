@@ -126,13 +126,12 @@ def _run(script, tmp_path):
             p.stop()
 
 
-#: seen on a 2-core machine at load 15-30: moves abort ('shoulder did not settle', 0.1 rad;
-#: a cartesian descent past a joint limit) and leave an object behind; pick_place passed once
-#: in four runs. Not passing yet.
+#: 2026-11-27 17:41 (scenes relaid so the open fingers clear the neighbours, cluster_tol 0.01):
+#: pick_place passed (59 s); the four others ran to their end but left objects ~4 mm from where
+#: they stood (grasps that carried nothing; not diagnosed yet). Not passing yet.
 NOT_YET = pytest.mark.skipif(not os.environ.get('PX100_PERCEPTION_E2E'),
                              reason='not passing yet (issue #29; PX100_PERCEPTION_E2E=1 runs '
-                                    'it): moves abort (shoulder did not settle, a descent past '
-                                    'a joint limit)')
+                                    'it): all but pick_place leave objects where they stood')
 
 
 @pytest.mark.ros
