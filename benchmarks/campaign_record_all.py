@@ -136,7 +136,11 @@ def one_run(i: int, ns: str, work: str, tell_client: bool) -> tuple:
     if not all(sent.values()):
         return False, counts, f'the client sent nothing of some kind: {counts}'
     missing = missing_calls(bag, ns, sent)
-    return not missing, counts, missing
+    if missing:     # with the evidence: when the recorder got ready, what the client saw of it
+        notes = [x for x in proc.stderr.splitlines() if 'ecorder' in x or 'Initialized' in x]
+        notes += [x for x in rec.output().splitlines() if 'ready' in x or 'recording to' in x]
+        return False, counts, f'{missing}\n    ' + '\n    '.join(notes)
+    return True, counts, missing
 
 
 def run(runs: int, tell_client: bool, log=print) -> int:

@@ -66,6 +66,8 @@ ACTION_TOPIC_TYPES = {
 }
 #: where a recorder announces that it is ready (relative to /<robot_name>/): the bag directory
 READY_TOPIC = 'recorder/ready'
+#: latched std_msgs/String: the subscribed-ahead topics matched with a publisher, one per line
+MATCHED_TOPIC = 'recorder/matched'
 
 
 def default_output_dir() -> str:
@@ -119,6 +121,7 @@ class TopicSelection:
         #: topics below the namespace start with this
         self.prefix = namespace.rstrip('/') + '/'
         self.ready_topic = self.prefix + READY_TOPIC
+        self.matched_topic = self.prefix + MATCHED_TOPIC
 
     @property
     def default_set(self) -> bool:
@@ -132,7 +135,7 @@ class TopicSelection:
 
     def selected(self, topic: str) -> bool:
         """Return True if ``topic`` is recorded."""
-        if topic == self.ready_topic:
+        if topic in (self.ready_topic, self.matched_topic):
             return False
         if topic in self.wanted:
             return True

@@ -22,7 +22,8 @@ recorder subscribes to the service event topics on which the servers publish thi
 calls (action goals, cancels and results, IK requests and replies). For a recorder of this
 process both directions are checked (its subscription has matched this client's publisher,
 and the servers' event publishers, too); for one in another process this client's side is
-checked and the recorder's subscriptions to the event topics are seen in the graph (at most
+checked, and for each event topic the recorder subscribes to (seen in the graph) the recorder's
+own word that it matched its publisher (``recorder/matched``; at most
 :data:`MATCH_WAIT` s, half that for a recorder of another namespace, which records this robot
 only when it records every topic; a recorder announces ready once it matched the publishers
 it knows). A recorder that is not
@@ -35,6 +36,7 @@ import threading
 import time
 from typing import Dict, List
 
+from px100_control.bag.recording import MATCHED_TOPIC
 from px100_control.ros import recorder_registry
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -224,14 +226,33 @@ class RecorderWait:
                     for i in self.node.get_subscriptions_info_by_topic(pub.topic_name)):
                 time.sleep(0.01)
             self.core._await_matched(pub, max(0.0, end - time.monotonic()))
-        for topic in self.events:
-            while time.monotonic() < end and not any(
-                    i.node_name == RECORDER_NODE and i.node_namespace == ns
-                    for i in self.node.get_subscriptions_info_by_topic(topic)):
-                time.sleep(0.01)
-        time.sleep(0.05)  # the recorder's side of the match trails ours by a moment
+        self._await_recorder_matched(ns, end)
         self.node.loginfo(f"Recorder ready and matched: recording to {', '.join(paths)}")
         return True
+
+    def _await_recorder_matched(self, ns: str, end: float) -> None:
+        """Wait until the recorder says it matched the event topics it subscribes (by end)."""
+        matched, changed = set(), threading.Event()
+
+        def on_matched(msg: String) -> None:
+            matched.update(msg.data.splitlines())
+            changed.set()
+
+        sub = self.node.create_subscription(String, f"{ns.rstrip('/')}/{MATCHED_TOPIC}",
+                                            on_matched, _LATCHED, callback_group=self.core._cbg)
+        try:
+            for topic in self.events:
+                while time.monotonic() < end and not any(
+                        i.node_name == RECORDER_NODE and i.node_namespace == ns
+                        for i in self.node.get_subscriptions_info_by_topic(topic)):
+                    time.sleep(0.01)    # (a recorder that does not record it never subscribes)
+                while time.monotonic() < end and topic not in matched and any(
+                        i.node_name == RECORDER_NODE and i.node_namespace == ns
+                        for i in self.node.get_subscriptions_info_by_topic(topic)):
+                    changed.clear()
+                    changed.wait(0.05)
+        finally:
+            self.node.destroy_subscription(sub)
 
     # -- helpers --------------------------------------------------------------------------
     def _note_bag(self, path: str) -> None:

@@ -149,7 +149,7 @@ class RecorderNode(Node):
                               encode_string=cdr.string_writer(),
                               live=lambda: self.count_publishers(TF_TOPIC) > 0)
         self.topics = RecorderTopics(self, self.bag, self._selected, self.selection.wanted,
-                                     self._make_callback)
+                                     self._make_callback, self.selection.matched_topic)
         #: topic -> raw subscription (the client looks up what a Recorder subscribes here)
         self._subs = self.topics.subs
         try:

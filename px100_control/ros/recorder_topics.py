@@ -13,9 +13,11 @@ from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.ros.bag_qos import (ahead_qos, all_latched, assumed_offer, describe,
                                        matches_all, qos_to_dict, subscription_qos)
+from px100_control.ros.common import LATCHED_QOS
 from px100_control.ros.message_types import message_class
 from px100_control.wire.private_api import take_serialized
 from rclpy.node import Node
+from std_msgs.msg import String
 
 
 def take_next(sub):
@@ -35,11 +37,18 @@ class RecorderTopics:
     :param selected: selected(topic) -> True if the topic is recorded
     :param wanted: the topics asked for by name (not recording one of them is a warning)
     :param callback_for: callback_for(topic) -> the raw subscription's callback
+    :param matched_topic: where the subscribed-ahead topics matched so far are announced
+        (latched std_msgs/String, one topic per line, again at each new match): a client in
+        another process waits for its calls' event topics there, since seeing the recorder's
+        subscription in its own graph does not mean the recorder has matched the publisher
     """
 
     def __init__(self, node: Node, bag: BagWriter, selected: Callable[[str], bool],
-                 wanted: Iterable[str], callback_for: Callable[[str], Callable]):
+                 wanted: Iterable[str], callback_for: Callable[[str], Callable],
+                 matched_topic: str = ''):
         self.node, self.bag = node, bag
+        self._pub_matched = node.create_publisher(String, matched_topic, LATCHED_QOS) \
+            if matched_topic else None
         self._selected = selected
         self._wanted, self._callback_for = set(wanted), callback_for
         self._log = node.get_logger()
@@ -47,7 +56,7 @@ class RecorderTopics:
         self.subs: Dict[str, object] = {}
         #: contract topics subscribed ahead of their publishers: topic -> (type, latched)
         self.ahead: Dict[str, tuple] = {}
-        #: subscribed-ahead topics already matched with a publisher (and logged as recorded)
+        #: subscribed topics already matched with a publisher
         self.matched: set = set()
         #: the QoS of each subscribed-ahead topic's subscription
         self.ahead_qos: Dict[str, object] = {}
@@ -112,13 +121,17 @@ class RecorderTopics:
                        f'[{type_name}, {describe(qos)}]')
 
     def note_matches(self) -> None:
-        """Log 'recording <topic>' once a subscribed-ahead topic is matched with a publisher."""
-        for topic, (type_name, _) in list(self.ahead.items()):
-            sub = self.subs.get(topic)
-            if topic in self.matched or sub is None or sub.get_publisher_count() == 0:
+        """Note the topics newly matched with a publisher (log the subscribed-ahead ones)."""
+        known = len(self.matched)
+        for topic, sub in list(self.subs.items()):
+            if topic in self.matched or sub.get_publisher_count() == 0:
                 continue
             self.matched.add(topic)
-            self._log.info(f'recording {topic} [{type_name}] ({describe(self.ahead_qos[topic])})')
+            if topic in self.ahead:
+                self._log.info(f'recording {topic} [{self.ahead[topic][0]}] '
+                               f'({describe(self.ahead_qos[topic])})')
+        if self._pub_matched is not None and len(self.matched) > known:
+            self._pub_matched.publish(String(data='\n'.join(sorted(self.matched))))
 
     def unmatched(self) -> List[str]:
         """Return the selected topics whose publishers are not all matched yet."""
