@@ -47,7 +47,11 @@ def free_domains(workers, rng=random):
 
 def main(argv):
     """Print the domain; exit 1 (with the reason on stderr) if every domain is taken."""
-    workers = max(1, int(argv[1])) if len(argv) > 1 else 1
+    try:
+        workers = max(1, int(argv[1])) if len(argv) > 1 else 1
+    except ValueError:
+        print(f'free_domain: WORKERS must be a whole number, not {argv[1]!r}', file=sys.stderr)
+        return 2
     domain = free_domains(workers)
     if domain is None:
         print(f'free_domain: no {workers} consecutive free DDS domains in {LOWEST}..{HIGHEST}',

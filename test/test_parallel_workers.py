@@ -66,3 +66,11 @@ def test_free_domain_skips_a_domain_a_real_participant_holds():
     finally:
         holder.stdin.close()
         assert holder.wait(timeout=30) == 0
+
+
+def test_free_domain_refuses_a_worker_count_that_is_no_number():
+    """One line naming the bad value, exit 2, no domain printed."""
+    done = subprocess.run([sys.executable, os.path.join(ROOT, 'scripts', 'free_domain.py'),
+                           'two'], capture_output=True, text=True, timeout=30)
+    assert done.returncode == 2 and done.stdout == ''
+    assert "WORKERS must be a whole number, not 'two'" in done.stderr

@@ -212,3 +212,22 @@ def test_record_cli_errors(node_process, tmp_path):
     assert proc.proc.wait(START_TIMEOUT) == 1
     assert 'duration must be a number > 0' in proc.output()
     assert 'Traceback' not in proc.output()
+
+
+def test_recorder_announces_the_topics_it_matched(rclpy_context, spin_node, node_process,
+                                                  tmp_path):
+    """recorder/matched (latched) lists a topic once the recorder matched its publisher."""
+    from rclpy.node import Node
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+    fake = spin_node(FakeRobot(context=rclpy_context))
+    listener = spin_node(Node('matched_listener', context=rclpy_context))
+    heard = []
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    proc = _start_recording(node_process, fake, str(tmp_path / 'matched'), '-a', '--no-tf')
+    listener.create_subscription(String, '/px100/recorder/matched',
+                                 lambda msg: heard.append(msg.data.splitlines()), latched)
+    assert wait_until(lambda: heard and JS in heard[-1], 30.0), (heard, proc.output())
+    assert not {'/px100/recorder/ready', '/px100/recorder/matched'} & set(heard[-1]), heard[-1]
+    assert proc.stop(30.0) == 0, proc.output()
