@@ -32,23 +32,11 @@ os.environ.setdefault('ROS_DOMAIN_ID', str(10 + os.getpid() % 90))
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
-ACTION = 'arm_controller/follow_joint_trajectory/_action/'
-#: what the client reports sent -> (service whose events hold it, request -> its name)
-CALLS = {
-    'goals': (ACTION + 'send_goal', lambda r: bytes(r.goal_id.uuid).hex()),
-    'results': (ACTION + 'get_result', lambda r: bytes(r.goal_id.uuid).hex()),
-    'cancels': (ACTION + 'cancel_goal', lambda r: bytes(r.goal_info.goal_id.uuid).hex()),
-    'ik': ('compute_ik', lambda r: _stamp(r.target.header.stamp)),
-    'path': ('compute_cartesian_path', lambda r: _stamp(r.waypoints.header.stamp)),
-}
+from px100_control.bag.calls import CLIENT_CALLS as CALLS, stamp_text  # noqa: E402, I100
 #: bound [s]: fixed part and per run
 BOUND_BASE_S, BOUND_PER_RUN_S = 90.0, 45.0
 #: after the script exits, before the recorder is stopped: its last events are in flight [s]
 SETTLE_S = 0.3
-
-
-def _stamp(stamp) -> str:
-    return f'{int(stamp.sec)}.{int(stamp.nanosec):09d}'
 
 
 # -- the client script (run as ``campaign_record_all.py --client NS``) -----------------------
@@ -74,7 +62,7 @@ def client_main(ns: str) -> int:
     for key, client, field in (('ik', core.srv_ik, 'target'),
                                ('path', core.srv_ik_path, 'waypoints')):
         def call_async(request, _orig=client.call_async, _key=key, _field=field):
-            sent[_key].append(_stamp(getattr(request, _field).header.stamp))
+            sent[_key].append(stamp_text(getattr(request, _field).header.stamp))
             return _orig(request)
         client.call_async = call_async
     robot_startup()

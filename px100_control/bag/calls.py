@@ -26,6 +26,24 @@ REQUEST_EVENTS = (0, 1)    # service_msgs/ServiceEventInfo REQUEST_SENT, REQUEST
 RESPONSE_EVENTS = (2, 3)   # RESPONSE_SENT, RESPONSE_RECEIVED
 
 
+def stamp_text(stamp) -> str:
+    """Return a builtin_interfaces/Time as 'sec.nanosec' (nine digits): a request's name."""
+    return f'{int(stamp.sec)}.{int(stamp.nanosec):09d}'
+
+
+_ARM_ACTION = 'arm_controller/follow_joint_trajectory/_action/'
+#: the calls a px100_control client makes, by kind -> (the service, relative to the robot
+#: namespace, whose events hold them; request -> the name the client knows it by: goal id in
+#: hex, target stamp)
+CLIENT_CALLS = {
+    'goals': (_ARM_ACTION + 'send_goal', lambda r: bytes(r.goal_id.uuid).hex()),
+    'results': (_ARM_ACTION + 'get_result', lambda r: bytes(r.goal_id.uuid).hex()),
+    'cancels': (_ARM_ACTION + 'cancel_goal', lambda r: bytes(r.goal_info.goal_id.uuid).hex()),
+    'ik': ('compute_ik', lambda r: stamp_text(r.target.header.stamp)),
+    'path': ('compute_cartesian_path', lambda r: stamp_text(r.waypoints.header.stamp)),
+}
+
+
 @dataclass(frozen=True)
 class EventInfo:
     """The ``info`` of one service event: event type, stamp [ns], client id, sequence number."""

@@ -19,6 +19,7 @@ import subprocess
 import sys
 import time
 
+from px100_control.bag.calls import CLIENT_CALLS as CALLS, stamp_text
 from px100_control.bag.reader import open_bag
 import pytest
 
@@ -29,15 +30,6 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 RUNS = int(os.environ.get('PX100_RECORD_RUNS', '0') or 0) or (
     20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 3)
 SETPOINTS = 'commands/joint_setpoints'
-ACTION = 'arm_controller/follow_joint_trajectory/_action/'
-#: what the script reports sent -> (service whose events hold it, request -> its key)
-CALLS = {
-    'goals': (ACTION + 'send_goal', lambda r: bytes(r.goal_id.uuid).hex()),
-    'results': (ACTION + 'get_result', lambda r: bytes(r.goal_id.uuid).hex()),
-    'cancels': (ACTION + 'cancel_goal', lambda r: bytes(r.goal_info.goal_id.uuid).hex()),
-    'ik': ('compute_ik', lambda r: _stamp(r.target.header.stamp)),
-    'path': ('compute_cartesian_path', lambda r: _stamp(r.waypoints.header.stamp)),
-}
 
 
 def _env(**extra):
@@ -46,10 +38,6 @@ def _env(**extra):
         os.pathsep) if p])
     env.update(extra)
     return env
-
-
-def _stamp(stamp) -> str:
-    return f'{stamp.sec}.{stamp.nanosec:09d}'
 
 
 def _answered_calls(bag_dir: str, ns: str) -> dict:
@@ -79,7 +67,7 @@ def _answered_calls(bag_dir: str, ns: str) -> dict:
             out[what] = {k for seq, k in requests.items() if seq in responses}
     with open_bag(bag_dir) as bag:
         topic = f'/{ns}/{SETPOINTS}'
-        out[SETPOINTS] = {_stamp(msg.header.stamp) for _, msg in bag.iter_decoded(
+        out[SETPOINTS] = {stamp_text(msg.header.stamp) for _, msg in bag.iter_decoded(
             [topic] if topic in bag.topics else [])}
     return out
 
