@@ -267,9 +267,11 @@ class InterbotixArmXSInterface:
         Return the wall-time budget [s] of a move lasting ``duration`` simulated seconds.
 
         trajectory_server reports within duration + its settling allowance (goal_time_tolerance)
-        of simulated time; the budget adds 25 % and 2 s of wall time for a loaded machine.
+        of simulated time; the budget adds 25 % and 2 s of wall time for a loaded machine. A
+        faster simulation (real_time_factor > 1) gets the budget of real time: on a loaded
+        machine it may run slower than asked.
         """
-        return 1.25 * (duration + SETTLE_ALLOWANCE) / self.core.real_time_factor + 2.0
+        return 1.25 * (duration + SETTLE_ALLOWANCE) / min(self.core.real_time_factor, 1.0) + 2.0
 
     def publish_positions(self, positions: Sequence[float], moving_time: Optional[float] = None,
                           accel_time: Optional[float] = None, blocking: bool = True) -> bool:

@@ -583,9 +583,29 @@ class InterbotixRobotXSCore:
         return _time_of((now_ns // 1_000_000_000, now_ns % 1_000_000_000))
 
     def sleep(self, seconds: float) -> None:
-        """Sleep ``seconds`` of simulated time (wall seconds / real_time_factor)."""
-        if seconds > 0:
+        """
+        Sleep ``seconds`` of simulated time.
+
+        At real_time_factor 1 that is wall time. Otherwise the in-process driver owns the clock
+        and may run slower than asked on a loaded machine, so the wait follows the stamps of
+        joint_states (simulated time) until they advanced by ``seconds``; if they stop coming,
+        it gives up after the wall time the factor promised, four times over, plus 2 s.
+        """
+        if not seconds > 0:
+            return
+        if self.real_time_factor == 1.0 or self.joint_states is None:
             time.sleep(seconds / self.real_time_factor)
+            return
+        target_ns = self._js_stamp_ns() + int(seconds * 1e9)
+        give_up = time.monotonic() + 4.0 * seconds / self.real_time_factor + 2.0
+        while self._js_stamp_ns() < target_ns and time.monotonic() < give_up:
+            time.sleep(0.001)
+
+    def _js_stamp_ns(self) -> int:
+        """Return the stamp [ns] of the last joint_states message (simulated time)."""
+        with self.js_mutex:
+            stamp = self.joint_states.header.stamp
+        return stamp.sec * 1_000_000_000 + stamp.nanosec
 
     def joint_state_age(self) -> float:
         """Return the wall time [s] since the last joint_states message (inf before any)."""
