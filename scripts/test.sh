@@ -7,10 +7,10 @@ bash "$ROOT/scripts/setup.sh"
 bash "$ROOT/scripts/setup_browser.sh"
 # shellcheck disable=SC1091
 source "$ROOT/scripts/env.sh"
-# Parallel workers (pytest-xdist, opt-in): PX100_TEST_WORKERS of them (default 0: one
-# process). Worker K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py); a test
-# module goes to one worker whole, except SPREAD_MODULES (test/conftest.py: its scheduler).
-WORKERS=${PX100_TEST_WORKERS:-0}
+# Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them, default 2 (0: one process).
+# Worker K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py);
+# a test module goes to one worker whole, except SPREAD_MODULES (test/tiers.py).
+WORKERS=${PX100_TEST_WORKERS:-2}
 # a domain no other ROS program on this host is using (scripts/free_domain.py says how it knows)
 DOMAINS=$(( WORKERS > 0 ? WORKERS : 1 ))
 ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(python "$ROOT/scripts/free_domain.py" "$DOMAINS")}
