@@ -327,7 +327,11 @@ class InterbotixRobotXSCore:
         cls = ProcessBringup if str(mode).lower() == 'process' else InProcessBringup
         bringup = cls(self.robot_model, self.robot_name,
                       real_time_factor=self.real_time_factor, **node_kwargs)
-        bringup.start(context=self.robot_node.context)
+        try:
+            bringup.start(context=self.robot_node.context)
+        except BaseException:   # Ctrl-C while its nodes start: stop those already up
+            bringup.stop()
+            raise
         _robot.set_bringup(bringup, self.robot_name)
         self._started_bringup = True
 

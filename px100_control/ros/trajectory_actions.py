@@ -14,7 +14,9 @@ its own; the engine is shared under the server's lock.
 Every goal, cancel and result call is published as service introspection events
 (:mod:`px100_control.ros.action_events`).
 """
+import atexit
 import threading
+import weakref
 
 from action_msgs.msg import GoalInfo, GoalStatus
 from control_msgs.action import FollowJointTrajectory, GripperCommand
@@ -133,6 +135,11 @@ class TrajectoryActions:
         self._thread = threading.Thread(target=self._spin, name='trajectory_actions',
                                         daemon=True)
         self._thread.start()
+        # a node left undestroyed (its process interrupted while it was being built) must not
+        # keep spinning into interpreter finalization: a daemon thread that wakes in rclpy's
+        # wait then aborts the process ("terminate called without an active exception")
+        stop = weakref.WeakMethod(self._stop_spinning)
+        atexit.register(lambda: stop() and stop()())
 
     def _spin(self) -> None:
         try:
@@ -141,10 +148,13 @@ class TrajectoryActions:
         except ExternalShutdownException:
             pass
 
+    def _stop_spinning(self, timeout: float = 5.0) -> None:
+        self._stop.set()
+        self._thread.join(timeout=timeout)
+
     def close(self) -> None:
         """Stop the executor thread and destroy the servers and the helper node."""
-        self._stop.set()
-        self._thread.join(timeout=5.0)
+        self._stop_spinning()
         self._executor.shutdown(timeout_sec=1.0)
         for server in (self.arm, self.gripper):
             if server is not None:

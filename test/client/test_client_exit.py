@@ -44,3 +44,29 @@ def test_a_spin_loop_left_running_does_not_abort_the_exit():
         assert done.returncode == 130, \
             f'run {run}: exit {done.returncode}, stderr: {done.stderr[-2000:]}'
         assert 'terminate called' not in done.stderr, done.stderr[-2000:]
+
+
+#: a trajectory_server built and never destroyed (its process interrupted while the in-process
+#: bringup started): its action servers' own spin thread is running at exit
+LEFT_SERVER = """
+import sys
+import rclpy
+from px100_control.ros.trajectory_server_node import TrajectoryServerNode
+rclpy.init()
+node = TrajectoryServerNode()
+print('serving', flush=True)
+sys.exit(130)
+"""
+
+
+def test_a_trajectory_server_left_undestroyed_does_not_abort_the_exit():
+    """Exit 130, no abort: the actions' spin thread stops at exit (before: SIGABRT)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [ROOT] + [p for p in os.environ.get('PYTHONPATH', '').split(os.pathsep) if p]))
+    for run in range(3):
+        done = subprocess.run([sys.executable, '-c', LEFT_SERVER], env=env, text=True,
+                              capture_output=True, timeout=60)
+        assert 'serving' in done.stdout, done.stderr[-2000:]
+        assert done.returncode == 130, \
+            f'run {run}: exit {done.returncode}, stderr: {done.stderr[-2000:]}'
+        assert 'terminate called' not in done.stderr, done.stderr[-2000:]
