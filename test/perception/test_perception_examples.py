@@ -132,8 +132,8 @@ def _run(script, tmp_path):
 #: scene faults, fixed: a yellow rendered at hue 0.16 (outside color_compare's yellow, put back), a
 #: black piece at HSV value 0.30-0.33 (taken for white), a 20 mm can below the closed fingers'
 #: ~22 mm (never held). Since: block_organizer 1/1, size_organizer 1/1, color_sorter 1/2 (a move
-#: aborted, the purple block never touched), chessboard_cleanup 0/1 (a move aborted, 'driver not
-#: following', joint_states 0.25 s late; white_1 knocked 8 mm). Not yet 3 passes in a row each.
+#: aborted, the purple block never touched), chessboard_cleanup 1/2 (once a move aborted,
+#: 'driver not following', joint_states 0.25 s late; white_1 knocked 8 mm). Not yet 3 passes each.
 NOT_YET = pytest.mark.skipif(not os.environ.get('PX100_PERCEPTION_E2E'),
                              reason='not passing reliably yet (issue #29; PX100_PERCEPTION_E2E=1 '
                                     'runs it): moves abort under load; see the comment above')
