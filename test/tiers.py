@@ -48,7 +48,8 @@ SPREAD_MODULES = ('test/test_clean_shutdown.py', 'test/client/test_client_demo.p
                   'test/client/test_client_lifecycle.py', 'test/nodes/test_duplicate_nodes.py',
                   'test/nodes/test_world_nodes.py', 'test/test_launch_files.py',
                   'test/robots/test_client_robots.py', 'test/robots/test_ik_service_robots.py',
-                  'test/sim/test_sim_driver_node.py')
+                  'test/sim/test_sim_driver_node.py',
+                  'test/perception/test_perception_examples.py')
 #: module fixtures cheap enough to set up on every worker that runs a SPREAD_MODULES test:
 #: 'file::fixture'
 CHEAP_SHARED_FIXTURES = {'conftest.py::_no_stray_processes', 'test_clean_shutdown.py::graph',
