@@ -9,7 +9,8 @@ and ``gripper_controller/gripper_cmd`` (:mod:`px100_control.ros.trajectory_actio
 the goals. A goal's outcome goes to its action result and /diagnostics, setpoints at ``rate`` to
 ``commands/joint_setpoints`` and ``trajectory/feedback``. The goal clock is the node clock
 (``use_sim_time`` honoured); state freshness and the watchdog use the steady clock; a
-``joint_states`` read late because this node stalled counts from its stamp.
+``joint_states`` read late because this node stalled counts from its stamp, and a goal first
+reads the joint_states queued behind it (the actions run in a thread of their own).
 """
 from dataclasses import fields
 import threading
@@ -30,6 +31,7 @@ from px100_control.ros.peers import new_duplicates
 from px100_control.ros.trajectory_actions import TrajectoryActions
 from px100_control.tools.latency import QueueDelay
 from px100_control.tools.stall import StallMeter
+from px100_control.wire.private_api import take_deserialized
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -83,8 +85,8 @@ class TrajectoryServerNode(Node):
         self._pub_feedback = self.create_publisher(
             JointState, robot_topic(self, 'trajectory/feedback'), 100)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self.create_subscription(JointState, robot_topic(self, 'joint_states'),
-                                 self._on_joint_states, qos_profile_sensor_data)
+        self._js_sub = self.create_subscription(JointState, robot_topic(self, 'joint_states'),
+                                                self._on_joint_states, qos_profile_sensor_data)
         self._timer = self.create_timer(1.0 / self._rate, self._on_tick)
         self._watchdog = self.create_timer(WATCHDOG_PERIOD, self._on_watchdog,
                                            clock=self._steady)
@@ -137,9 +139,21 @@ class TrajectoryServerNode(Node):
 
     def start_goal(self, request, tag) -> None:
         """Start a goal (under the lock); raise InvalidInputError when it is invalid."""
+        self._take_queued_states()
         goal, old = self._engine.start(request, self.get_clock().now().nanoseconds,
                                        self._steady.now().nanoseconds, tag)
         self._started(goal, old)
+
+    def _take_queued_states(self) -> None:
+        """Read the joint_states queued for this node (its executor may lag the action thread)."""
+        for _ in range(qos_profile_sensor_data.depth):
+            try:
+                taken = take_deserialized(self._js_sub)
+            except Exception:  # noqa: B902 - destroyed meanwhile (stop in progress)
+                return
+            if taken is None:
+                return
+            self._on_joint_states(taken[0])
 
     def _started(self, goal: Goal, old: Optional[Goal]) -> None:
         """Log a started goal after ending the one it preempted."""
