@@ -26,10 +26,11 @@ recorder sees every request and reply.
 from px100_control.control.ik_requests import (ik_answer, path_targets, plan_path,
                                                request_mode, request_seed)
 from px100_control.errors import InvalidInputError
+from px100_control.ros.action_events import EVENT_QOS
 from px100_control.ros.common import robot_topic
 from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
 from rclpy.duration import Duration
-from rclpy.qos import qos_profile_services_default, qos_profile_system_default, QoSProfile
+from rclpy.qos import qos_profile_services_default, QoSProfile
 from rclpy.service_introspection import ServiceIntrospectionState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
@@ -61,7 +62,7 @@ class IkServices:
                                         robot_topic(node, 'compute_cartesian_path'),
                                         self._on_path, qos_profile=SERVICE_QOS)
         for service in (self.ik, self.path):
-            service.configure_introspection(node.get_clock(), qos_profile_system_default,
+            service.configure_introspection(node.get_clock(), EVENT_QOS,
                                             ServiceIntrospectionState.CONTENTS)
 
     def _on_ik(self, request, response):

@@ -41,6 +41,7 @@ import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.parameters import PC_FILTER
 from px100_control.perception.cloud_filter import FilterParams, params_error, run_pipeline
+from px100_control.ros.action_events import EVENT_QOS
 from px100_control.ros.common import spin_node
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.pc_filter_messages import (cloud_arrays, cloud_message, cluster_infos,
@@ -49,8 +50,7 @@ from px100_control.ros.pc_filter_messages import (cloud_arrays, cloud_message, c
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import (HistoryPolicy, qos_profile_system_default, QoSProfile,
-                       ReliabilityPolicy)
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.service_introspection import ServiceIntrospectionState
 from sensor_msgs.msg import PointCloud2
 from std_srvs.srv import SetBool
@@ -103,7 +103,7 @@ class PcFilterNode(Node):
                                      self._on_get_clusters),
                                     (SetBool, 'enable_pipeline', self._on_enable)):
             service = self.create_service(srv, name, callback)
-            service.configure_introspection(self.get_clock(), qos_profile_system_default,
+            service.configure_introspection(self.get_clock(), EVENT_QOS,
                                             ServiceIntrospectionState.CONTENTS)
         self.get_logger().info(f'pointcloud_pipeline ready: filtering {self._topic} '
                                f'(pipeline {"enabled" if self._enabled else "on demand"})')

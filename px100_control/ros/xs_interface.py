@@ -24,11 +24,11 @@ from interbotix_xs_msgs.srv import (MotorGains, OperatingModes, Reboot, Register
                                     RobotInfo, TorqueEnable)
 from px100_control.control.xs_driver import GAIN_REGISTERS, POSITION_MODES, XsDriver
 from px100_control.errors import Px100Error
+from px100_control.ros.action_events import EVENT_QOS
 from px100_control.ros.common import robot_topic
 from px100_control.sim.driver_parameters import to_gains
 from px100_control.sim.simulator import check_modes, SetpointCommand
 from rclpy.parameter import Parameter
-from rclpy.qos import qos_profile_system_default
 from rclpy.service_introspection import ServiceIntrospectionState
 
 #: the sim_driver's operating_mode parameter of each driver mode (arm joints; the gripper's
@@ -67,7 +67,7 @@ class XsInterface:
                 (MotorGains, 'set_motor_pid_gains', self._on_gains)):
             service = node.create_service(srv, robot_topic(node, name), callback,
                                           callback_group=group)
-            service.configure_introspection(node.get_clock(), qos_profile_system_default,
+            service.configure_introspection(node.get_clock(), EVENT_QOS,
                                             ServiceIntrospectionState.CONTENTS)
             self.services.append(service)
         node.add_post_set_parameters_callback(self._on_parameters)
