@@ -22,7 +22,7 @@ def test_the_slowest_of_every_report_first(tmp_path):
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert 'slowest 3 tests' in lines[0]
-    assert [ln.split()[-1] for ln in lines[1:]] == ['test.stress::s1', 'test.a::t1',
-                                                     'test.stress::s2']
+    names = [ln.split()[-1] for ln in lines[1:]]
+    assert names == ['test.stress::s1', 'test.a::t1', 'test.stress::s2']
     assert lines[1].split()[0] == '12.00s'
     assert 'missing.xml' in out.stderr

@@ -27,12 +27,12 @@ SIGINT and SIGTERM finalise the bag; after SIGKILL it is readable up to its last
 Nothing lost at the start: the recorder subscribes at once to the contract's topics
 (docs/ros_interfaces.md: it knows their names, types and QoS), before any publisher exists, and
 to other topics as they appear. It is *ready* once every selected topic that has a publisher is
-subscribed and matched with all its publishers (or after ``ready_timeout``, with a warning
-naming the unmatched ones); it then publishes the bag directory on ``recorder/ready``
-(std_msgs/String, transient local), where the client waits for it (:mod:`px100_control.client.
-recorder_wait`), and logs ``ready``; ``with Recorder(dir):`` enters only then. It also lists
-itself in :mod:`px100_control.ros.recorder_registry`, so a client started just after it knows
-it is coming before DDS discovery has found it.
+subscribed and matched with all its publishers, for calls' topics on their side too (ros.
+writer_match), or after ``ready_timeout`` with a warning naming the unmatched ones; it then
+publishes the bag directory on ``recorder/ready`` (std_msgs/String, transient local), where the
+client waits (client.recorder_wait), and logs ``ready``; ``with Recorder(dir):`` enters only
+then. It lists itself in ros.recorder_registry: a client started just after it knows it is
+coming before DDS discovery has found it.
 
 Python API: :mod:`px100_control.ros.recorder`. Bag times: reception [ns since the epoch]. The
 closing line counts the topics that got a message, of the 'ready' line's recorded topics.

@@ -9,12 +9,14 @@ publisher matches, and added to the bag with the QoS profiles they offer.
 """
 from typing import Callable, Dict, Iterable, List
 
+from px100_control.bag.ros_names import kind_of
 from px100_control.bag.writer import BagWriter
 from px100_control.errors import BagError
 from px100_control.ros.bag_qos import (ahead_qos, all_latched, assumed_offer, describe,
                                        matches_all, qos_to_dict, subscription_qos)
 from px100_control.ros.common import LATCHED_QOS
 from px100_control.ros.message_types import message_class
+from px100_control.ros.writer_match import participant_of, WriterSideCheck
 from px100_control.wire.private_api import take_serialized
 from rclpy.node import Node
 from std_msgs.msg import String
@@ -62,10 +64,13 @@ class RecorderTopics:
         self.ahead_qos: Dict[str, object] = {}
         #: topic -> why it is not recorded
         self.skipped: Dict[str, str] = {}
+        #: whether the publishers' processes have matched the subscriptions on their side
+        self.writer_side = WriterSideCheck(node)
 
     def _subscribe(self, cls, topic: str, qos):
         sub = self.node.create_subscription(cls, topic, self._callback_for(topic), qos, raw=True)
         self.subs[topic] = sub
+        self.writer_side.reset()
         return sub
 
     def subscribe_contract(self, contract: Iterable[tuple]) -> None:
@@ -134,8 +139,15 @@ class RecorderTopics:
             self._pub_matched.publish(String(data='\n'.join(sorted(self.matched))))
 
     def unmatched(self) -> List[str]:
-        """Return the selected topics whose publishers are not all matched yet."""
-        out = []
+        """
+        Return the selected topics whose publishers are not all matched yet, on either side.
+
+        This side: the subscription counts every publisher of the graph. Theirs, for the
+        topics of calls (service events, actions: their servers spin, so they can answer):
+        each publisher's process answered a question asked after the subscriptions were made
+        (:mod:`px100_control.ros.writer_match`).
+        """
+        out, infos = [], {}
         for topic, _ in self.node.get_topic_names_and_types():
             if topic in self.skipped or not self._selected(topic):
                 continue
@@ -145,6 +157,17 @@ class RecorderTopics:
             sub = self.subs.get(topic)
             if sub is None or sub.get_publisher_count() < n:
                 out.append(topic)
+            elif not out and kind_of(topic) != 'topic':
+                infos[topic] = self.node.get_publishers_info_by_topic(topic)
+        if out:
+            return out
+        waiting = set(self.writer_side.unconfirmed(i for pubs in infos.values() for i in pubs))
+        for topic, pubs in infos.items():
+            nodes = sorted({f"{i.node_namespace.rstrip('/')}/{i.node_name}" for i in pubs
+                            if participant_of(i) in waiting})
+            if nodes:
+                out.append(f"{topic} (the process of {', '.join(nodes)} has not confirmed "
+                           'its side yet)')
         return out
 
     def scan(self) -> None:

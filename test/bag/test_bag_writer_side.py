@@ -1,0 +1,75 @@
+"""
+A recorder is ready only once the servers' processes have matched its subscriptions themselves.
+
+The recorder's participant knows ik_service's event publisher (it saw it before); ik_service's
+process is stopped (SIGSTOP) before the recorder subscribes, so it cannot learn of the
+subscription: the recorder's side of the match is complete at once, the server's is not, and
+an event the server published now would never reach the bag. Ready must wait until the server
+answers (px100_control.ros.writer_match); after SIGCONT it does, and the first call is
+recorded. On the code before the check, ready came at once while the server was stopped.
+"""
+import os
+import signal
+import time
+
+import pytest
+
+pytestmark = pytest.mark.ros
+
+
+def _wait(predicate, timeout):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return predicate()
+
+
+def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_process, tmp_path):
+    """Server stopped: not ready; resumed: ready, and its first call's events are in the bag."""
+    from geometry_msgs.msg import PoseStamped
+    from px100_control.bag.reader import open_bag
+    from px100_control.ros.recorder import Recorder
+    from px100_control_msgs.srv import ComputeIK
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    ns = f'px100_ws_{os.getpid()}'
+    events = f'/{ns}/compute_ik/_service_event'
+    server = node_process('ik_service', '--ros-args', '-r', f'__ns:=/{ns}')
+    probe = Node('writer_side_probe', context=rclpy_context)
+    assert _wait(lambda: probe.count_publishers(events) == 1, 30.0), server.output()[-2000:]
+    client = probe.create_client(ComputeIK, f'/{ns}/compute_ik')
+    assert client.wait_for_service(timeout_sec=30.0), server.output()[-2000:]
+    executor = SingleThreadedExecutor(context=rclpy_context)
+    executor.add_node(probe)
+    rec = Recorder(str(tmp_path / 'bag'), topics=[events], robot_name=ns, context=rclpy_context,
+                   write_tf=False, ready_timeout=30.0)
+    server.signal(signal.SIGSTOP)
+    try:
+        rec.start(wait=False)
+        sub = rec.node.topics.subs.get(events)
+        assert _wait(lambda: sub is not None and sub.get_publisher_count() == 1, 10.0), \
+            'the recorder did not see the (stopped) server'
+        time.sleep(1.0)   # the stopped server: nothing can happen, nothing to wait for
+        assert not rec.node.ready.is_set(), 'ready while the server could not know the recorder'
+    finally:
+        server.signal(signal.SIGCONT)
+    assert rec.wait_ready(20.0), server.output()[-2000:]
+    target = PoseStamped()
+    target.header.frame_id = f'{ns}/base_link'
+    target.header.stamp.sec = 4242
+    target.pose.position.x, target.pose.position.z = 0.2, 0.15
+    target.pose.orientation.w = 1.0
+    future = client.call_async(ComputeIK.Request(target=target))
+    executor.spin_until_future_complete(future, timeout_sec=20.0)
+    assert future.done(), 'no answer from compute_ik'
+    # the events travel apart from the answer: wait for both (a lost one never comes)
+    arrived = _wait(lambda: rec.node.bag.message_count >= 2, 10.0)
+    rec.stop()
+    executor.shutdown()
+    probe.destroy_node()
+    with open_bag(str(tmp_path / 'bag')) as bag:
+        kinds = sorted(msg.info.event_type for _, msg in bag.iter_decoded([events]))
+    assert arrived and kinds == [1, 2], \
+        f'events in the bag: {kinds} (1 REQUEST_RECEIVED, 2 RESPONSE_SENT)'
