@@ -37,9 +37,14 @@ def robots(names):
 
 #: modules that share a pytest-xdist worker (run one after another, never beside each other):
 #: the stress package shares one graph (a package fixture) and loads the machine on purpose; the
-#: demo's viewer and the documented commands (viewer, demo --viewer) serve the default port 8080
+#: demo's viewer and the documented commands (viewer, demo --viewer) serve the default port 8080;
+#: the perception examples and demo (camera, filter, bringup and a script each: about 1.5 cores)
+#: starved each other's nodes when two ran at once (joint_states 1.07 s old, a shoulder that did
+#: not settle), so they take turns
 SERIAL_GROUPS = {'test/stress/': 'stress', 'test/docs/test_documented_commands.py': 'port_8080',
-                 'test/viewer/test_viewer_demo_end.py': 'port_8080'}
+                 'test/viewer/test_viewer_demo_end.py': 'port_8080',
+                 'test/perception/test_perception_examples.py': 'camera',
+                 'test/perception/test_perception_demo.py': 'camera'}
 #: slow modules whose tests share no module fixture (each starts its own processes): their tests
 #: are handed out one by one, to run beside each other (checked at collection)
 SPREAD_MODULES = ('test/test_clean_shutdown.py', 'test/client/test_client_demo.py',
@@ -49,8 +54,7 @@ SPREAD_MODULES = ('test/test_clean_shutdown.py', 'test/client/test_client_demo.p
                   'test/client/test_client_lifecycle.py', 'test/nodes/test_duplicate_nodes.py',
                   'test/nodes/test_world_nodes.py', 'test/test_launch_files.py',
                   'test/robots/test_client_robots.py', 'test/robots/test_ik_service_robots.py',
-                  'test/sim/test_sim_driver_node.py',
-                  'test/perception/test_perception_examples.py')
+                  'test/sim/test_sim_driver_node.py')
 #: module fixtures cheap enough to set up on every worker that runs a SPREAD_MODULES test:
 #: 'file::fixture'
 CHEAP_SHARED_FIXTURES = {'conftest.py::_no_stray_processes', 'test_clean_shutdown.py::graph',
