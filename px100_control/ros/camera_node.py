@@ -6,7 +6,9 @@ rendering never slows sim_driver's physics: the robot's geometry from the URDF o
 ``robot_description`` (sim_driver's; no frame before it arrives), the world's bodies
 from ``world/markers`` and the ArmTag on the gripper. Each frame (a timer at ``rate`` Hz) it
 poses the model from the last ``joint_states`` and markers and renders it offscreen
-(``MUJOCO_GL=egl``: the CPU software renderer on a machine without a GPU).
+(``MUJOCO_GL=egl``: the CPU software renderer on a machine without a GPU), but only while one
+of its image, camera_info or cloud topics has a subscriber (the cloud is computed only while
+its own topic has one): an unwatched camera costs no CPU.
 
 - sub ``robot_description`` (std_msgs/String, transient local: the model is rebuilt when it
   changes; one MuJoCo cannot build is logged, no frames until a usable one),
@@ -173,12 +175,19 @@ class CameraNode(Node):
             poses[name] = ((p.x, p.y, p.z), (o.x, o.y, o.z, o.w))
         self._bodies, self._poses = tuple(bodies), poses
 
+    def _listeners(self) -> set:
+        """Return the keys of self._pub whose topics have a subscriber now."""
+        return {k for k, pub in self._pub.items() if pub.get_subscription_count()}
+
     def _on_timer(self) -> None:
         if not self.get_parameter('enable').value or self._stamp is None or not self._urdf:
             return
+        listeners = self._listeners()
+        if not listeners:            # as a RealSense with no consumer: no frame rendered
+            return
         start = time.perf_counter()
         try:
-            self._frame()
+            self._frame(listeners)
         except Exception as exc:  # noqa: B902 - a frame must never stop the node
             if shutting_down(self.context):
                 return
@@ -187,8 +196,8 @@ class CameraNode(Node):
         self.frame_seconds.append(time.perf_counter() - start)
         del self.frame_seconds[:-100]
 
-    def _frame(self) -> None:
-        """Render the last state and publish colour, depth, camera_info and the cloud."""
+    def _frame(self, listeners=frozenset(('points',))) -> None:
+        """Render the last state: images, camera_infos, and the cloud if it has a listener."""
         tag = armtag.TAG_ID if self.get_parameter('armtag').value else None
         if needs_rebuild(self._scene, self.camera, self._bodies, tag, self._urdf):
             prefix = f'{robot_name(self)}/' if robot_name(self) else ''
@@ -205,8 +214,9 @@ class CameraNode(Node):
         self._pub['color_info'].publish(info)
         self._pub['depth'].publish(image_msg(depth, '32FC1', stamp, frame))
         self._pub['depth_info'].publish(info)
-        points, colors = back_project(self.camera.intrinsics(), depth, color)
-        self._pub['points'].publish(cloud_msg(points, colors, stamp, frame))
+        if 'points' in listeners:
+            points, colors = back_project(self.camera.intrinsics(), depth, color)
+            self._pub['points'].publish(cloud_msg(points, colors, stamp, frame))
 
     def destroy_node(self):
         """Free the renderer, then destroy the node."""

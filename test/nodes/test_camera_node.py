@@ -8,6 +8,7 @@ CameraSpec of the scene file, object positions from world/markers, the tag's pos
 /tf tree (:class:`px100_control.bag.tf.TfTree`) at the image's joint_states.
 """
 import math
+import os
 import threading
 import time
 
@@ -53,18 +54,32 @@ class CameraProbe(Node):
         self.lock = threading.Lock()
         self.last, self.joints, self.static = {}, {}, {}
         self.markers = None
-        for key, (kind, topic) in TOPICS.items():
-            self.create_subscription(kind, f'/px100/{topic}', self._keep(key), IMAGE_QOS)
+        self.colour_frames = 0
+        self.camera_subs = []
+        self.subscribe_camera()
         self.create_subscription(JointState, '/px100/joint_states', self._on_js,
                                  qos_profile_sensor_data)
         self.create_subscription(MarkerArray, '/px100/world/markers', self._on_markers,
                                  LATCHED_QOS)
         self.create_subscription(TFMessage, '/tf_static', self._on_static, TF_STATIC_QOS)
 
+    def subscribe_camera(self):
+        """Subscribe to every camera topic (TOPICS)."""
+        self.camera_subs = [self.create_subscription(kind, f'/px100/{topic}', self._keep(key),
+                                                     IMAGE_QOS)
+                            for key, (kind, topic) in TOPICS.items()]
+
+    def unsubscribe_camera(self):
+        """Destroy the subscriptions to the camera topics."""
+        for sub in self.camera_subs:
+            self.destroy_subscription(sub)
+        self.camera_subs = []
+
     def _keep(self, key):
         def cb(msg):
             with self.lock:
                 self.last[key] = msg
+                self.colour_frames += key == 'color'
         return cb
 
     def _on_js(self, msg):
@@ -258,3 +273,39 @@ def test_enable_false_stops_frames(env):
     finally:
         assert all(r.successful for r in _set(params, enable=True))
     probe.frame(timeout=30.0)
+
+
+def _cpu_seconds(pid: int) -> float:
+    """Return the user + system CPU time [s] process pid has used so far (/proc/<pid>/stat)."""
+    with open(f'/proc/{pid}/stat', encoding='ascii') as f:
+        fields = f.read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def test_unwatched_camera_renders_nothing(env):
+    """
+    With no subscriber to any camera topic the camera renders no frame; with one, it renders.
+
+    The cost of a frame is measured first (the camera's CPU time over 10 frames received);
+    then, with the probe's camera subscriptions gone from the graph, 3 s of the camera must
+    cost less than 3 frames (rendering at 5 Hz costs 15).
+    """
+    probe, camera, _ = env
+    start, cpu = probe.colour_frames, _cpu_seconds(camera.pid)
+    assert wait_for(lambda: probe.colour_frames >= start + 10, 30.0), 'no frames'
+    per_frame = (_cpu_seconds(camera.pid) - cpu) / (probe.colour_frames - start)
+    last = _sim_seconds(probe.last['color'])
+    probe.unsubscribe_camera()
+    try:
+        topics = [f'/px100/{topic}' for _, topic in TOPICS.values()]
+        assert wait_for(lambda: not any(probe.count_subscribers(t) for t in topics), 10.0), \
+            {t: probe.count_subscribers(t) for t in topics}
+        time.sleep(0.5)                      # a frame being rendered may still finish
+        cpu = _cpu_seconds(camera.pid)
+        time.sleep(3.0)                      # the window measured (no event to wait for)
+        idle = _cpu_seconds(camera.pid) - cpu
+        assert idle < 3 * per_frame, \
+            f'unwatched camera used {idle:.3f} CPU-s in 3 s; one frame costs {per_frame:.3f}'
+    finally:
+        probe.subscribe_camera()
+    probe.frame(after=last + 1e-6, timeout=30.0)
