@@ -441,9 +441,8 @@ def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
     :raises BagError: no joint_states, or pillow is not installed
     """
     plt = _pyplot()
-    from matplotlib.animation import FuncAnimation, PillowWriter  # optional: plots only
     try:
-        import PIL  # noqa: F401  # optional: pillow, needed by PillowWriter
+        from PIL import Image  # optional: pillow writes the GIF
     except ImportError:
         raise BagError('cannot write a GIF: pillow is not installed') from None
     frames = animation_frames(series, fps, max_frames)
@@ -485,10 +484,44 @@ def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
         title.set_text(f'{series.namespace or "arm"}  t = {t:6.2f} s')
         return lines + [trail, title]
 
-    anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
-    anim.save(path, writer=PillowWriter(fps=fps))
+    images = []
+    for k in range(len(frames)):          # each frame rendered once (Animation.save: twice)
+        draw(k)
+        fig.canvas.draw()
+        images.append(Image.fromarray(np.array(np.asarray(fig.canvas.buffer_rgba())[:, :, :3])))
     plt.close(fig)
+    _write_gif(images, path, fps)
     return path
+
+
+def _write_gif(images: list, path: str, fps: float) -> None:
+    """
+    Write RGB PIL images as a looping GIF at fps, on one palette.
+
+    The palette is the commonest colours of the first, middle and last frames, at least 8
+    levels apart (the plot's flat colours do not change between frames, only where they are;
+    antialiased edges take the nearest); no dithering, so flat areas stay exact.
+    """
+    from PIL import Image  # optional: pillow writes the GIF
+    picks = [images[0], images[len(images) // 2], images[-1]]
+    strip = Image.new('RGB', (picks[0].width, picks[0].height * len(picks)))
+    for i, im in enumerate(picks):
+        strip.paste(im, (0, i * im.height))
+    counts = sorted(strip.getcolors(maxcolors=strip.width * strip.height), reverse=True)
+    chosen = np.full((256, 3), -99)
+    n = 0
+    for _, rgb in counts:
+        # Pillow maps a colour through a cache of 8-level cells: a rarer colour in the cell of
+        # a commoner one (252 by the page's 255) would take the commoner's pixels
+        if n == 0 or np.abs(chosen[:n] - rgb).max(axis=1).min() >= 8:
+            chosen[n], n = rgb, n + 1
+            if n == 256:
+                break
+    palette = Image.new('P', (1, 1))
+    palette.putpalette(chosen[:n].ravel().tolist())
+    frames = [im.quantize(palette=palette, dither=Image.Dither.NONE) for im in images]
+    frames[0].save(path, save_all=True, append_images=frames[1:],
+                   duration=int(round(1000.0 / fps)), loop=0)
 
 
 def _draw_world(ax, world) -> list:
