@@ -33,6 +33,8 @@ How each line is classified (:func:`classify`) and checked:
 - ``syntax``: a usage form (``[options]``, ``…``, placeholders in capitals): the executable
   exists and its ``--help`` names every option the form uses.
 - ``suite``: ``bash scripts/test.sh`` runs this suite: only parsed (``bash -n``).
+- ``quick``: ``bash scripts/test_quick.sh``, the quick tier, whose tests this suite runs: run
+  with ``--collect-only`` (it must collect them, at least 500); in full with ``PX100_STRESS=full``.
 """
 import json
 import os
@@ -161,6 +163,8 @@ def classify(line):
         return 'demo', line
     if line == 'bash scripts/test.sh':
         return 'suite', line
+    if line == 'bash scripts/test_quick.sh' and not FULL:
+        return 'quick', line
     if words[0] == 'ros2':
         if words[1:3] == ['run', 'px100_control'] and len(words) > 3:
             if words[3] == '<name>':
@@ -370,6 +374,18 @@ def _suite(line, env, tmp, helps):
     return out.stderr if out.returncode else ''
 
 
-CHECKS = {'run': _run, 'long': _long, 'ros2-run': _ros2_run, 'ros2-run-any': _ros2_run_any,
+def _quick(line, env, tmp, helps):
+    """Check the quick tier's command collects its tests (this suite runs them anyway)."""
+    out = subprocess.run(['bash', '-c', _script(line + ' --collect-only')],
+                         cwd=_cwd(line, tmp), env=env, capture_output=True, text=True,
+                         timeout=600)
+    m = re.search(r'^(\d+)(/\d+)? tests collected', out.stdout, re.M)
+    if out.returncode != 0 or not m or int(m.group(1)) < 500:
+        return f'exit {out.returncode}, no quick tier: {(out.stdout + out.stderr)[-2000:]}'
+    return ''
+
+
+CHECKS = {'quick': _quick, 'run': _run, 'long': _long, 'ros2-run': _ros2_run,
+          'ros2-run-any': _ros2_run_any,
           'ros2-launch': _ros2_launch, 'syntax': _syntax, 'ros2-cli': _not_run,
           'workspace': _not_run, 'suite': _suite, 'demo': _not_run, 'shared': _not_run}
