@@ -12,18 +12,10 @@ import os
 import signal
 import time
 
+from bag_ros_support import wait_until
 import pytest
 
 pytestmark = pytest.mark.ros
-
-
-def _wait(predicate, timeout):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
 
 
 def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_process, tmp_path):
@@ -38,7 +30,7 @@ def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_proce
     events = f'/{ns}/compute_ik/_service_event'
     server = node_process('ik_service', '--ros-args', '-r', f'__ns:=/{ns}')
     probe = Node('writer_side_probe', context=rclpy_context)
-    assert _wait(lambda: probe.count_publishers(events) == 1, 30.0), server.output()[-2000:]
+    assert wait_until(lambda: probe.count_publishers(events) == 1, 30.0), server.output()[-2000:]
     client = probe.create_client(ComputeIK, f'/{ns}/compute_ik')
     assert client.wait_for_service(timeout_sec=30.0), server.output()[-2000:]
     executor = SingleThreadedExecutor(context=rclpy_context)
@@ -49,7 +41,7 @@ def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_proce
     try:
         rec.start(wait=False)
         sub = rec.node.topics.subs.get(events)
-        assert _wait(lambda: sub is not None and sub.get_publisher_count() == 1, 10.0), \
+        assert wait_until(lambda: sub is not None and sub.get_publisher_count() == 1, 10.0), \
             'the recorder did not see the (stopped) server'
         time.sleep(1.0)   # the stopped server: nothing can happen, nothing to wait for
         assert not rec.node.ready.is_set(), 'ready while the server could not know the recorder'
@@ -65,7 +57,7 @@ def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_proce
     executor.spin_until_future_complete(future, timeout_sec=20.0)
     assert future.done(), 'no answer from compute_ik'
     # the events travel apart from the answer: wait for both (a lost one never comes)
-    arrived = _wait(lambda: rec.node.bag.message_count >= 2, 10.0)
+    arrived = wait_until(lambda: rec.node.bag.message_count >= 2, 10.0)
     rec.stop()
     executor.shutdown()
     probe.destroy_node()
