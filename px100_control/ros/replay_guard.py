@@ -4,8 +4,9 @@ Replay safety: a bag's setpoints are not re-sent to a live arm.
 When a live driver or trajectory server runs in a namespace the bag's
 ``commands/joint_setpoints`` are replayed into (:mod:`px100_control.ros.peers`), they are
 withheld, with a warning naming the live nodes. The graph is watched up to LIVE_CHECK_S
-before the replay (the wait ends as soon as a live node is seen and named; a name still
-unknown is waited for up to NAME_WAIT_S more) and looked at again, at most
+before the replay (the wait ends once a live node is seen, named, and no other has appeared
+for SETTLE_S: one process's endpoints are discovered one by one; a name still unknown, or a
+set still growing, is waited for up to NAME_WAIT_S more) and looked at again, at most
 every LIVE_RECHECK_S, while commands are replayed: discovery can outlast the first look on a
 loaded machine. Times are ``time.monotonic()`` seconds.
 """
@@ -23,6 +24,9 @@ LIVE_CHECK_S = DISCOVERY_BOUND_S
 #: how much longer [s] a live node seen but not yet named is waited for (its name arrives
 #: after its endpoints; CI once saw only '(a node not identified yet)' at 3 s)
 NAME_WAIT_S = 1.0
+#: how long [s] the live nodes found must stay the same before they are named (CI once named
+#: only sim_driver of a bringup: its action status publisher was discovered after joint_states')
+SETTLE_S = 0.5
 #: while commands are replayed, the graph is looked at again at most this often [s]
 LIVE_RECHECK_S = 0.25
 
@@ -66,9 +70,13 @@ class CommandGuard:
             time.sleep(0.05)
             live, unknown = self._live_nodes()
         deadline = time.monotonic() + NAME_WAIT_S
-        while live and unknown and time.monotonic() < deadline and not self._stop.is_set():
+        settled = time.monotonic() + SETTLE_S
+        while live and (unknown or time.monotonic() < settled) and \
+                time.monotonic() < deadline and not self._stop.is_set():
             time.sleep(0.05)
-            live, unknown = self._live_nodes()
+            seen, unknown = self._live_nodes()
+            if seen != live:
+                live, settled = seen, time.monotonic() + SETTLE_S
         self._withhold(live)
 
     def _withhold(self, live: Dict[str, List[str]]) -> None:

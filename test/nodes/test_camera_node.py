@@ -288,7 +288,9 @@ def test_unwatched_camera_renders_nothing(env):
 
     The cost of a frame is measured first (the camera's CPU time over 10 frames received);
     then, with the probe's camera subscriptions gone from the graph, 3 s of the camera must
-    cost less than 3 frames (rendering at 5 Hz costs 15).
+    cost less than 6 frames (rendering at 5 Hz costs 15; what is left is joint_states at
+    100 Hz and the markers: 3.1 frames' worth in CI beside the other worker, 11.4 on the old
+    code, alone).
     """
     probe, camera, _ = env
     start, cpu = probe.colour_frames, _cpu_seconds(camera.pid)
@@ -304,7 +306,7 @@ def test_unwatched_camera_renders_nothing(env):
         cpu = _cpu_seconds(camera.pid)
         time.sleep(3.0)                      # the window measured (no event to wait for)
         idle = _cpu_seconds(camera.pid) - cpu
-        assert idle < 3 * per_frame, \
+        assert idle < 6 * per_frame, \
             f'unwatched camera used {idle:.3f} CPU-s in 3 s; one frame costs {per_frame:.3f}'
     finally:
         probe.subscribe_camera()

@@ -55,6 +55,7 @@ class PcClient(Node):
         self.diagnostics = []
         self.objects = 0
         self.last_objects = None
+        self._probe, self._probe_sent = None, 0.0
         self.pub = self.create_publisher(PointCloud2, CLOUD_TOPIC, QoSProfile(
             depth=1, reliability=ReliabilityPolicy.RELIABLE))
         self.set_params = self.create_client(FilterParams, '/pc_filter/set_filter_params')
@@ -76,10 +77,24 @@ class PcClient(Node):
             self.last_objects = msg
 
     def ready(self) -> bool:
-        """Return True once the services are up and the cloud subscriber is matched."""
-        return (all(c.service_is_ready() for c in (self.set_params, self.get_clusters,
+        """
+        Return True once pc_filter's services and cloud are matched on both sides.
+
+        A service is ready on the client's side before the server has discovered the client's
+        response reader, and a response sent then is lost (CI: set_filter_params unanswered for
+        20 s). The parameter client's endpoints were created after the service clients', and one
+        participant's endpoints are announced in order: once pc_filter answers a parameter
+        query, it knows the service clients' readers as well.
+        """
+        if not (all(c.service_is_ready() for c in (self.set_params, self.get_clusters,
                                                    self.enable))
-                and self.pub.get_subscription_count() > 0)
+                and self.pub.get_subscription_count() > 0):
+            return False
+        if self._probe is None or (not self._probe.done()
+                                   and time.monotonic() - self._probe_sent > 2.0):
+            self._probe = self.params.get_parameters(['use_sim_time'])
+            self._probe_sent = time.monotonic()
+        return self._probe.done()
 
     def call(self, client, request, timeout: float = 20.0):
         """Call a service (this node spins elsewhere); return the response."""
