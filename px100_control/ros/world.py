@@ -2,14 +2,15 @@
 The sim_driver's world surface: ``world/markers`` and ``world/held_object`` publishing.
 
 A thin adapter: the bodies come from ``ArmSimulator.objects()`` / ``object_poses()`` /
-``held_object()``, the marker fields from :func:`px100_control.bag.world.world_markers`, the
+``gripped_objects()``, the marker fields from :func:`px100_control.bag.world.world_markers`, the
 messages from :mod:`px100_control.ros.world_msgs`. Both topics are transient local (a late
 subscriber gets the last state at once). ``world/markers`` follows ``world_rate`` in the
 driver's time (simulated time when it owns the clock); the MarkerArray is built once per scene
 and then restamped with the objects' new poses (in its CDR bytes, when the middleware reads
 them right). ``world/held_object`` is published when the held
-object changes (checked at the same rate; a grasp counts as lost once it stayed lost
-:data:`~px100_control.bag.world.HELD_GRACE` s, see :class:`~px100_control.bag.world.HeldFilter`).
+object changes (checked at the same rate): taken when both pads lift it, kept while both still
+touch it (set down, not yet released), lost once they stayed off it
+:data:`~px100_control.bag.world.HELD_GRACE` s (:class:`~px100_control.bag.world.HeldFilter`).
 """
 from typing import List, Optional
 
@@ -104,7 +105,9 @@ class WorldPublisher:
         self._next_ns = (stamp_ns + period if self._next_ns is None
                          or abs(stamp_ns - self._next_ns) > period
                          else self._next_ns + period)
-        held = self._held_filter.update((sim.held_object() if bodies else None) or '', stamp_ns)
+        gripped = sim.gripped_objects() if bodies else {}
+        lifted = next((name for name, off in gripped.items() if off), '')
+        held = self._held_filter.update(lifted, stamp_ns, gripped)
         if held != self._held:
             self._held = held
             self.pub_held.publish(String(data=held))

@@ -31,6 +31,7 @@ Usage (robot base frame, SI units, quaternions x, y, z, w)::
     sim.object_poses()   # {name: ((x, y, z) [m], (qx, qy, qz, qw))}, statics included
     sim.step()           # one control period (1 / control_rate s); or sim.advance(steps)
     sim.held_object()    # the object both finger pads touch and no static body does, or None
+    sim.gripped_objects()  # {object both pads touch: off its support}
     sim.reset_scene()    # objects back to their initial poses (arm untouched)
     sim.reset()          # arm to sleep, torque on, and the objects back
     sim.set_mode('waist', 'velocity')   # 'position' | 'velocity' | 'torque' | 'duty'

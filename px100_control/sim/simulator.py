@@ -1094,14 +1094,22 @@ class ArmSimulator:
         Contacts at the present state: kinematics and collision detection only (what the
         next step computes first; the trajectory does not depend on this query).
         """
+        return next((name for name, lifted in self.gripped_objects().items() if lifted), None)
+
+    def gripped_objects(self) -> Dict[str, bool]:
+        """
+        Return {object: off its support} for every object both finger pads touch, by name.
+
+        ``False``: it also touches a static body (squeezed on the table, or set down and not
+        yet released). Contacts at the present state, as :meth:`held_object`.
+        """
         if not self._geom_object:
-            return None
+            return {}
         mujoco.mj_kinematics(self.mj_model, self.mj_data)
         mujoco.mj_collision(self.mj_model, self.mj_data)
-        for name, touching in sorted(self.contacts().items()):
-            if {'left_pad', 'right_pad'} <= touching and 'static' not in touching:
-                return name
-        return None
+        return {name: 'static' not in touching
+                for name, touching in sorted(self.contacts().items())
+                if {'left_pad', 'right_pad'} <= touching}
 
 
 def _wxyz(xyzw) -> List[float]:

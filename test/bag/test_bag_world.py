@@ -80,6 +80,22 @@ def test_held_filter_takes_a_grasp_at_once_and_a_loss_once_it_lasts():
     assert f.held == '' and f.update('', 420 * ms) == ''
 
 
+def test_held_filter_keeps_a_grasp_while_both_pads_touch_it_on_the_table():
+    """Lifted, then resting again between closed pads (squeeze settling, set down): held."""
+    from px100_control.bag.world import HeldFilter
+    f = HeldFilter(grace=0.2)
+    ms = 1_000_000
+    assert f.update('', 0, gripped=['cyl']) == ''       # squeezed on the table: not yet held
+    assert f.update('cyl', 10 * ms, gripped=['cyl']) == 'cyl'
+    for t in range(20, 1000, 10):                        # settled on the table for 1 s
+        assert f.update('', t * ms, gripped=['cyl']) == 'cyl'
+    assert f.update('cube', 1000 * ms, gripped=['cyl', 'cube']) == 'cyl'
+    assert f.update('', 1010 * ms, gripped=[]) == 'cyl'  # fingers open: lost after the grace
+    assert f.update('', 1209 * ms, gripped=[]) == 'cyl'
+    assert f.update('', 1210 * ms, gripped=[]) == ''
+    assert f.update('', 1220 * ms, gripped=['cyl']) == ''   # touched on the table: not held
+
+
 def test_placement_verdicts():
     """Placed within the tolerance; dropped when lifted but elsewhere; not picked otherwise."""
     start, target = (0.2, 0.1, 0.0125), (0.2, -0.1, 0.0125)

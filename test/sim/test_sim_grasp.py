@@ -106,6 +106,18 @@ def test_good_grasp_holds_through_a_fast_swing(px100, scene, name):
                                    atol=1e-4)
 
 
+def test_set_down_between_closed_pads_is_gripped_not_lifted(px100, scene):
+    """Picked, lowered back onto the table: both pads still on it, on its support; open: free."""
+    sim = ArmSimulator(px100, scene=scene)
+    assert sim.gripped_objects() == {}
+    p0 = _pick(sim, 'green_cube')
+    assert sim.gripped_objects() == {'green_cube': True}
+    _move(sim, _ik(sim, p0 - [0.0, 0.0, 0.002]), 1.0)              # pushed onto the table
+    assert sim.gripped_objects() == {'green_cube': False} and sim.held_object() is None
+    _grip(sim, 0.4, 1.0)
+    assert sim.gripped_objects() == {}
+
+
 def test_grasp_planned_at_the_nominal_pose_tolerates_jitter(px100, scene):
     """The cube moved +-5 mm and turned +-10 deg, picked where the file says: 5 of 5 held."""
     rng = np.random.default_rng(5)
