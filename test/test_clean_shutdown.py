@@ -12,11 +12,17 @@ phases of its callbacks. ``viewer --bag`` (no node) runs in the events rounds on
 (what a plain rclpy node does on one SIGINT or SIGTERM) with no abort, no ``[FATAL]`` line, no
 traceback, and the recorder's bag closed (metadata.yaml written, MCAP footer present).
 
-Repeats per executable, way and executor: 1 by default (each of the 9 rounds starts 10 to 12
-executables: the default suite's share is 99 stops), 20 with ``PX100_STRESS=full``
-(``PX100_SHUTDOWN_REPEATS=N`` overrides); the random choices are seeded by the case, so a
-failure repeats with the same delays. The figures of the last run of each case are appended to
-``out/shutdown_stress.jsonl``.
+Rounds. By default one round per executor, in which the executables take the three ways in
+rotation (ROTATION: executable k stops the way ``WAYS[(k + e) % 3]`` in the round of executor
+``e``; one left out of some rounds by SAME_AS_IN stops its other ways as extra instances in its
+first round): across the three rounds every executable is stopped every way and under every
+executor it runs under, and every (executor, way) pair is met; 36 stops in 3 rounds.
+A round costs its processes' starts (10 to 12 at once: 25-40 s on 2 cores), so the full product
+(9 rounds, one per executor and way, every executable stopped that way) ran 99 stops in about
+330 s of the suite's time; it runs with ``PX100_STRESS=full`` (20 repeats of each of the 9
+rounds) or ``PX100_SHUTDOWN_PRODUCT=1``. ``PX100_SHUTDOWN_REPEATS=N`` sets the repeats of either
+form. The random choices are seeded by the case, so a failure repeats with the same delays. The
+figures of the last run of each case are appended to ``out/shutdown_stress.jsonl``.
 """
 import ast
 import json
@@ -31,10 +37,14 @@ import time
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-REPEATS = int(os.environ.get('PX100_SHUTDOWN_REPEATS')
-              or (20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 1))
+FULL = os.environ.get('PX100_STRESS', '').lower() == 'full'
+REPEATS = int(os.environ.get('PX100_SHUTDOWN_REPEATS') or (20 if FULL else 1))
 WAYS = ('sigint', 'sigint_twice', 'sigterm')
 EXECUTORS = ('events', 'single', 'multi')
+#: the way of the rotation: each executable's way changes from one executor's round to the next
+ROTATION = 'rotation'
+#: True: one round per executor and way (9), every executable stopped that way
+PRODUCT = FULL or os.environ.get('PX100_SHUTDOWN_PRODUCT', '').lower() in ('1', 'true', 'yes')
 #: what must never appear in a stopped node's output
 BAD_OUTPUT = ('[FATAL]', 'terminate called', 'Traceback', 'Segmentation fault', 'Aborted')
 CORE = ['sim_driver', 'ik_service', 'trajectory_server', 'robot_state_publisher']
@@ -187,16 +197,40 @@ def _bag_closed(path):
     return '' if mcaps else 'no .mcap file'
 
 
-def _signal_schedule(procs, way, rng):
+def ways_of_round(executor, way):
+    """
+    Return {executable: [the ways its instances are stopped]} in the round of ``executor``.
+
+    ``way`` one of WAYS: every executable of the round, one instance, that way. ROTATION:
+    executable k (in EXECUTABLES' order) takes WAYS[(k + e) % 3] in the round of EXECUTORS[e],
+    so over the three executors' rounds it takes each way once; one left out of some rounds
+    (SAME_AS_IN) runs the ways those rounds would have given it as extra instances in its first
+    round. An executable not in the executor's round is absent.
+    """
+    out = {}
+    for k, key in enumerate(EXECUTABLES):
+        rounds = [e for e in EXECUTORS if e not in SAME_AS_IN.get(key, ())]
+        if executor not in rounds:
+            continue
+        if way != ROTATION:
+            out[key] = [way]
+            continue
+        own = {e: WAYS[(k + EXECUTORS.index(e)) % len(WAYS)] for e in rounds}
+        extra = [w for w in WAYS if w not in own.values()] if executor == rounds[0] else []
+        out[key] = [own[executor]] + extra
+    return out
+
+
+def _signal_schedule(procs, rng):
     """
     Send each process its signal(s) at a random time within 0.4 s of the others.
 
-    The times are drawn per process (a second SIGINT 10-300 ms after the first), then sent in
-    time order: the stops overlap as under ``ros2 launch``, and the round does not wait for
-    each delay in turn.
+    ``procs``: [(process, way)]. The times are drawn per process (a second SIGINT 10-300 ms
+    after the first), then sent in time order: the stops overlap as under ``ros2 launch``, and
+    the round does not wait for each delay in turn.
     """
     events = []
-    for proc in procs:
+    for proc, way in procs:
         at = rng.uniform(0.0, 0.4)
         sig = signal.SIGTERM if way == 'sigterm' else signal.SIGINT
         events.append((at, proc, sig))
@@ -215,15 +249,18 @@ SAME_AS_IN = {'viewer --bag': ('single', 'multi'), 'camera': ('multi',)}
 
 
 def _round(graph, replay_bag, executor, way, rng, tmp):
-    """Start every executable, stop each one the given way; return {exe: problem or ''}."""
+    """
+    Start every executable, stop each instance as ways_of_round says.
+
+    :return: {(executable, way): (exit code, problem or '')}
+    """
     tag = f'{executor[0]}{way[-4:]}{os.getpid()}_{rng.randrange(10**6)}'
     procs, expected = {}, {}
-    for key, (_, _, ready) in EXECUTABLES.items():
-        if executor in SAME_AS_IN.get(key, ()):
-            continue
-        ns = f"/sd_{tag}_{key.replace(' --', '_')}"
-        procs[ns] = _start(key, ns, tmp, replay_bag, executor) + (key,)
-        expected[ns] = ready
+    for key, ways in ways_of_round(executor, way).items():
+        for its_way in ways:
+            ns = f"/sd_{tag}_{key.replace(' --', '_')}_{its_way[-4:]}"
+            procs[ns] = _start(key, ns, tmp, replay_bag, executor) + (key, its_way)
+            expected[ns] = EXECUTABLES[key][2]
     missing = _wait_ready(graph, expected, procs, READY_TIMEOUT)
     for ns in missing:      # the evidence: every thread's Python stack, into its log
         if procs[ns][0].poll() is None:
@@ -232,9 +269,9 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
     order = list(procs)
     rng.shuffle(order)
     # one not up yet is stopped too: its exit is reported with it
-    _signal_schedule([procs[ns][0] for ns in order], way, rng)
+    _signal_schedule([(procs[ns][0], procs[ns][3]) for ns in order], rng)
     for ns in order:
-        proc, log, name = procs[ns]
+        proc, log, name, its_way = procs[ns]
         try:
             rc = proc.wait(30.0)
         except subprocess.TimeoutExpired:
@@ -255,14 +292,34 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
             reason = _bag_closed(os.path.join(tmp, f'bag_{ns.strip("/")}'))
             if reason:
                 problems.append('bag not closed: ' + reason)
-        results[name] = (rc, '; '.join(problems) + ('\n' + out[-1500:] if problems else ''))
+        results[name, its_way] = (rc, '; '.join(problems)
+                                  + ('\n' + out[-1500:] if problems else ''))
     return results
 
 
-@pytest.mark.parametrize('way', WAYS)
+def test_rotation_stops_every_executable_every_way_under_every_executor():
+    """
+    The default rounds (ROTATION) keep what the product's 9 rounds test, pairwise.
+
+    Every executable is stopped each way and runs under each executor it runs under in the
+    product; every (executor, way) pair is met; no executable runs where SAME_AS_IN leaves it out.
+    """
+    runs = [(key, w, e) for e in EXECUTORS for key, ways in ways_of_round(e, ROTATION).items()
+            for w in ways]
+    for key in EXECUTABLES:
+        rounds = {e for e in EXECUTORS if e not in SAME_AS_IN.get(key, ())}
+        assert sorted(w for k, w, _ in runs if k == key) == sorted(WAYS), key
+        assert {e for k, _, e in runs if k == key} == rounds, key
+    assert {(e, w) for _, w, e in runs} == {(e, w) for e in EXECUTORS for w in WAYS}
+    product = [(key, w, e) for e in EXECUTORS for w in WAYS
+               for key in ways_of_round(e, w)]
+    assert len(runs) == len(EXECUTABLES) * len(WAYS) < len(product)
+
+
+@pytest.mark.parametrize('way', WAYS if PRODUCT else (ROTATION,))
 @pytest.mark.parametrize('executor', EXECUTORS)
 def test_every_executable_stops_cleanly(graph, replay_bag, executor, way, tmp_path):
-    """REPEATS rounds: each executable stopped `way` under PX100_EXECUTOR=executor."""
+    """REPEATS rounds: each executable stopped `way` (or ROTATION's) under that executor."""
     rng = random.Random(f'{executor}/{way}/{REPEATS}')     # str seeds do not vary per run
     counts = {name: {'runs': 0, 'exit_0': 0, 'aborts': 0, 'fatal': 0, 'problems': 0}
               for name in EXECUTABLES if executor not in SAME_AS_IN.get(name, ())}
@@ -270,7 +327,8 @@ def test_every_executable_stops_cleanly(graph, replay_bag, executor, way, tmp_pa
     for i in range(REPEATS):
         tmp = str(tmp_path / f'round{i}')
         os.makedirs(tmp)
-        for name, (rc, problem) in _round(graph, replay_bag, executor, way, rng, tmp).items():
+        for (name, its_way), (rc, problem) in _round(graph, replay_bag, executor, way, rng,
+                                                     tmp).items():
             c = counts[name]
             c['runs'] += 1
             c['exit_0'] += rc == 0
@@ -278,7 +336,7 @@ def test_every_executable_stops_cleanly(graph, replay_bag, executor, way, tmp_pa
             c['fatal'] += '[FATAL]' in problem
             if problem:
                 c['problems'] += 1
-                failures.append(f'{name} ({executor}, {way}, round {i}): {problem}')
+                failures.append(f'{name} ({executor}, {its_way}, round {i}): {problem}')
     os.makedirs(os.path.join(ROOT, 'out'), exist_ok=True)
     with open(os.path.join(ROOT, 'out', 'shutdown_stress.jsonl'), 'a', encoding='utf-8') as f:
         f.write(json.dumps({'time': time.strftime('%Y-%m-%dT%H:%M:%S'), 'executor': executor,

@@ -20,7 +20,7 @@ def test_worker_scope_is_group_then_test_then_module():
     assert tiers.worker_scope('test/stress/test_load.py::test_x[1]') == 'stress'
     assert tiers.worker_scope('test/viewer/test_viewer_demo_end.py::test_page') == \
         'port_8080'
-    one = 'test/test_clean_shutdown.py::test_every_executable_stops_cleanly[events-sigint]'
+    one = 'test/test_clean_shutdown.py::test_every_executable_stops_cleanly[events-rotation]'
     assert tiers.worker_scope(one) == one
     assert tiers.worker_scope('test/client/test_client_arm.py::test_home') == \
         'test/client/test_client_arm.py'
