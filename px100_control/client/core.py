@@ -238,6 +238,13 @@ class InterbotixRobotXSCore:
             topic_joint_states = 'joint_states'
         if joint_state_topic is not None:
             topic_joint_states = joint_state_topic
+        self._created_monotonic = time.monotonic()
+        # the node first: its discovery of the graph (how long the duplicate checks must watch
+        # it) runs while the model loads and the nodes of a bringup start
+        if node is None:
+            node = _robot.get_interbotix_global_node()
+            if node is None:
+                node = _robot.create_interbotix_global_node()
         try:
             self.model: RobotModel = load_robot(robot_model)
         except Px100Error as exc:
@@ -293,14 +300,9 @@ class InterbotixRobotXSCore:
                                                          'Profile_Acceleration': 0}
             self._modes[self.model.gripper.joint] = ('pwm', 'velocity')
 
-        self._created_monotonic = time.monotonic()
         if bringup is None:
             env = os.environ.get('PX100_BRINGUP', '').strip().lower()
             bringup = 'process' if env == 'process' else env_flag('PX100_BRINGUP')
-        if node is None:
-            node = _robot.get_interbotix_global_node()
-            if node is None:
-                node = _robot.create_interbotix_global_node()
         self.robot_node = node
         self.robot_node.get_logger().set_level(logging_level)
         _robot.register_robot(self)
@@ -497,10 +499,11 @@ class InterbotixRobotXSCore:
         """
         Raise before starting nodes where a driver or trajectory_server already runs.
 
-        The graph is watched for ``discovery`` [s] (other processes' nodes take a moment to
-        be discovered by a new node; found ones end the wait at once).
+        The graph is watched until the client's node has been discovering for ``discovery``
+        [s] (other processes' nodes take a moment to be discovered by a new node; found ones
+        end the wait at once).
         """
-        end = time.monotonic() + discovery
+        end = self._node_born() + discovery
         while True:
             peers = live_peers(self.robot_node, self.ns or '/')
             names = peers['drivers'] + peers['trajectory_servers']
@@ -514,6 +517,10 @@ class InterbotixRobotXSCore:
                        'PX100_BRINGUP unset) or stop them.')
             self.get_node().logerror(message)
             raise InterbotixException(message)
+
+    def _node_born(self) -> float:
+        """Return time.monotonic() [s] when the client's node began discovering the graph."""
+        return getattr(self.robot_node, 'created_monotonic', self._created_monotonic)
 
     def duplicates(self) -> str:
         """Return a sentence naming a second driver / trajectory_server here ('' if none)."""
@@ -534,7 +541,7 @@ class InterbotixRobotXSCore:
         """
         problem = self.duplicates()
         if self._started_bringup:
-            born = getattr(self.robot_node, 'created_monotonic', self._created_monotonic)
+            born = self._node_born()
             while not problem and time.monotonic() - born < DISCOVERY_BOUND_S:
                 time.sleep(0.1)
                 problem = self.duplicates()
