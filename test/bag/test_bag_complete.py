@@ -10,8 +10,9 @@ calls of ``compute_ik`` / ``compute_cartesian_path``: the servers publish each a
 introspection events (``<service>/_service_event``). Each run's bag must hold, for every call
 the script made, the request (found by its goal id or target stamp) and the response (the
 event of the same sequence number), the result of every goal, and every setpoint stamp. Runs
-per way: env PX100_RECORD_RUNS, else 20 with PX100_STRESS=full, else 2 (and
-benchmarks/campaign_record_all.py runs ``record -a`` 20 times against one bringup).
+per way: env PX100_RECORD_RUNS, else 20 with PX100_STRESS=full, else 1 (each run is a bringup
+and a script: about 14 s; benchmarks/campaign_record_all.py runs ``record -a`` 20 times against
+one bringup).
 """
 import json
 import os
@@ -29,7 +30,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 RUNS = int(os.environ.get('PX100_RECORD_RUNS', '0') or 0) or (
-    20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 2)
+    20 if os.environ.get('PX100_STRESS', '').lower() == 'full' else 1)
 SETPOINTS = 'commands/joint_setpoints'
 
 
