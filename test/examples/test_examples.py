@@ -57,9 +57,15 @@ def test_seed000_offline(tmp_path):
 
 @pytest.mark.ros
 def test_seed000_scripts_through_the_client(tmp_path, monkeypatch):
-    """Both main() scripts run on the in-process simulated px100: 12 moves, Figs. 5-7, 10-12."""
+    """
+    Both main() scripts run on the in-process simulated px100: 12 moves, Figs. 5-7, 10-12.
+
+    The simulation runs 4 times faster than real time (the same scripts at real time, with the
+    measured joints checked, are test/client/test_client_seed000.py's).
+    """
     monkeypatch.setenv('PX100_BRINGUP', '1')
     monkeypatch.setenv('PX100_CONNECT_TIMEOUT', '30')
+    monkeypatch.setenv('PX100_REAL_TIME_FACTOR', '4')
     rep = _run('seed000_px100', tmp_path)
     names = sorted(os.path.basename(p) for p in rep.figures)
     assert [n for n in names if n.startswith('fig')] == [
