@@ -34,7 +34,7 @@ import time
 from typing import Dict, Optional
 import weakref
 
-from px100_control.ros.common import make_executor
+from px100_control.ros.common import make_executor, spin_once
 import rclpy
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
@@ -200,7 +200,7 @@ class SpinThread:
     def _run(self) -> None:
         try:
             while not self._stop.is_set() and self.executor.context.ok():
-                self.executor.spin_once(timeout_sec=0.05)
+                spin_once(self.executor, 0.05)
         except (ExternalShutdownException, KeyboardInterrupt):
             pass
         except Exception:  # noqa: B902 - the context was shut down under the executor

@@ -12,7 +12,7 @@ from typing import Callable, Optional, Sequence
 from px100_control.errors import Px100Error
 from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts, init_ros,
                                       install_stop_signals, keep_spinning, make_executor,
-                                      shutdown_executor, shutting_down)
+                                      shutdown_executor, shutting_down, spin_once)
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -44,7 +44,7 @@ def run_bag_tool(prog: str, argv: Sequence[str], build: Callable[[], Node],
         node = build()
         executor.add_node(node)
         while keep_spinning() and not done(node):
-            executor.spin_once(timeout_sec=0.1)
+            spin_once(executor, 0.1)
         result = status(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -25,6 +25,7 @@ from px100_control.ros.parameter_schema import parameter_descriptor
 import rclpy
 from rclpy import executors
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import InvalidHandle
 from rclpy.executors import ExternalShutdownException
 import rclpy.logging
 from rclpy.node import Node
@@ -188,6 +189,22 @@ def make_executor(context=None, kind: Optional[str] = None):
     if kind == 'single':
         return executors.SingleThreadedExecutor(context=context)
     return executors.MultiThreadedExecutor(context=context)
+
+
+def spin_once(executor, timeout_sec: float) -> None:
+    """
+    Spin the executor once (``timeout_sec`` [s]), past rclpy's race with another thread.
+
+    A subscription (or publisher) destroyed in another thread while a Python executor builds
+    its wait set makes ``spin_once`` raise ``InvalidHandle`` from the entity's QoS event
+    handler (ros2/rclpy#1284, in Jazzy's rclpy 7): the exception ended the spinning thread,
+    and its node received nothing more. That wait set is dropped here; the next call builds one
+    without the destroyed entity. No message is lost: they wait in the DDS readers.
+    """
+    try:
+        executor.spin_once(timeout_sec=timeout_sec)
+    except InvalidHandle:
+        pass
 
 
 #: signals received since :func:`install_stop_signals` (SIGINT / SIGTERM numbers)
@@ -384,7 +401,7 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
         # spin_once in a loop, not spin(): rclpy 7.1's EventsExecutor.spin() does not return
         # when SIGINT shuts the context down
         while keep_spinning() and not (done is not None and done(nodes)):
-            executor.spin_once(timeout_sec=0.1)
+            spin_once(executor, 0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception:

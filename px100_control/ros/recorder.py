@@ -22,7 +22,7 @@ import os
 import threading
 from typing import Optional, Sequence
 
-from px100_control.ros.common import BAG_EXECUTOR, make_executor
+from px100_control.ros.common import BAG_EXECUTOR, make_executor, spin_once
 from px100_control.ros.recorder_node import RecorderNode
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -95,7 +95,7 @@ class Recorder:
     def _spin(self) -> None:
         try:
             while self.context.ok() and not self.node.closed.is_set():
-                self._executor.spin_once(timeout_sec=0.1)
+                spin_once(self._executor, 0.1)
         except (ExternalShutdownException, KeyboardInterrupt):
             pass
         except Exception as exc:  # keep the bag: it is closed in stop()

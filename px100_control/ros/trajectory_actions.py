@@ -27,7 +27,7 @@ from px100_control.control.gripper_action import (closing_torque, gripper_target
                                                   SUCCEEDED)
 from px100_control.errors import InvalidInputError
 from px100_control.ros.action_events import IntrospectedActionServer
-from px100_control.ros.common import robot_topic
+from px100_control.ros.common import robot_topic, spin_once
 from px100_control.ros.conversions import seconds, stamp_key
 from rclpy.action import CancelResponse, GoalResponse
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
@@ -144,7 +144,7 @@ class TrajectoryActions:
     def _spin(self) -> None:
         try:
             while not self._stop.is_set() and self.node.context.ok():
-                self._executor.spin_once(timeout_sec=0.1)
+                spin_once(self._executor, 0.1)
         except ExternalShutdownException:
             pass
 

@@ -7,7 +7,6 @@ its own single-threaded executor thread.
 """
 import os
 import sys
-import threading
 
 import pytest
 
@@ -17,28 +16,25 @@ if HERE not in sys.path:
 
 
 class Spinner:
-    """Spin test-side nodes, one SingleThreadedExecutor thread per node."""
+    """Spin test-side nodes, one SingleThreadedExecutor per node in the client's SpinThread."""
 
     def __init__(self, ctx):
         self.ctx = ctx
         self.items = []
 
     def add(self, node):
-        """Spin node in a thread of its own; return it."""
+        """Spin node in a thread of its own; return it (a test may destroy its entities)."""
+        from px100_control.client.robot import SpinThread
         from rclpy.executors import SingleThreadedExecutor
         ex = SingleThreadedExecutor(context=self.ctx)
         ex.add_node(node)
-        th = threading.Thread(target=ex.spin, daemon=True)
-        th.start()
-        self.items.append((node, ex, th))
+        self.items.append((node, SpinThread(ex, f'spin_{node.get_name()}').start()))
         return node
 
     def close(self):
         """Stop every executor and destroy the nodes."""
-        for node, ex, th in self.items:
-            ex.shutdown(timeout_sec=2.0)
-        for node, ex, th in self.items:
-            th.join(timeout=5.0)
+        for node, spin in self.items:
+            spin.stop(timeout=5.0)
             node.destroy_node()
         self.items.clear()
 
