@@ -21,9 +21,10 @@ client's command publishers (setpoints) is matched with the recorder's subscript
 recorder subscribes to the service event topics on which the servers publish this client's
 calls (action goals, cancels and results, IK requests and replies). For a recorder of this
 process both directions are checked (its subscription has matched this client's publisher,
-and the servers' event publishers, too); for one in another process this client's side is
-checked, and for each event topic the recorder subscribes to (seen in the graph) the recorder's
-own word that it matched its publisher (``recorder/matched``; at most
+and the servers' event publishers, whose processes confirmed their side too); for one in
+another process this client's side is checked, and for each event topic the recorder
+subscribes to (seen in the graph) the recorder's own word that it matched its publishers on
+both sides (``recorder/matched``; at most
 :data:`MATCH_WAIT` s, half that for a recorder of another namespace, which records this robot
 only when it records every topic; a recorder announces ready once it matched the publishers
 it knows). A recorder that is not
@@ -191,9 +192,9 @@ class RecorderWait:
                 for i in self.node.get_subscriptions_info_by_topic(topic))
 
     def _local_event_matched(self, rec, topic: str) -> bool:
-        """Return True when the recorder's subscription matched the event's publishers."""
+        """Return True when the event's publishers and the recorder matched, on both sides."""
         sub = rec.topics.subs.get(topic)
-        return sub is not None and \
+        return sub is not None and topic in rec.topics.matched and \
             sub.get_publisher_count() >= max(1, len(rec.get_publishers_info_by_topic(topic)))
 
     # -- in another process ---------------------------------------------------------------

@@ -58,7 +58,7 @@ class RecorderTopics:
         self.subs: Dict[str, object] = {}
         #: contract topics subscribed ahead of their publishers: topic -> (type, latched)
         self.ahead: Dict[str, tuple] = {}
-        #: subscribed topics already matched with a publisher
+        #: subscribed topics already matched with a publisher (calls: on both sides)
         self.matched: set = set()
         #: the QoS of each subscribed-ahead topic's subscription
         self.ahead_qos: Dict[str, object] = {}
@@ -126,10 +126,20 @@ class RecorderTopics:
                        f'[{type_name}, {describe(qos)}]')
 
     def note_matches(self) -> None:
-        """Note the topics newly matched with a publisher (log the subscribed-ahead ones)."""
+        """
+        Note the topics newly matched with a publisher (log the subscribed-ahead ones).
+
+        A call's topic (a service event, an action's) counts once its publishers' processes
+        have also confirmed their side (:mod:`px100_control.ros.writer_match`): clients wait for
+        these topics before their first call, and a recorder that got ready before it knew the
+        servers (started with the script) would otherwise be trusted on its side alone.
+        """
         known = len(self.matched)
         for topic, sub in list(self.subs.items()):
             if topic in self.matched or sub.get_publisher_count() == 0:
+                continue
+            if kind_of(topic) != 'topic' and self.writer_side.unconfirmed(
+                    self.node.get_publishers_info_by_topic(topic)):
                 continue
             self.matched.add(topic)
             if topic in self.ahead:

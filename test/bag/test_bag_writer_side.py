@@ -65,3 +65,41 @@ def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_proce
         kinds = sorted(msg.info.event_type for _, msg in bag.iter_decoded([events]))
     assert arrived and kinds == [1, 2], \
         f'events in the bag: {kinds} (1 REQUEST_RECEIVED, 2 RESPONSE_SENT)'
+
+
+def test_a_ready_recorder_counts_a_call_topic_matched_once_the_server_confirmed(
+        rclpy_context, node_process, tmp_path):
+    """
+    Ready early (ready_timeout 0.5 s, server stopped): the event topic is not 'matched' yet.
+
+    A recorder started with the script gets ready before it knows the servers; clients then
+    wait for their call topics in ``topics.matched`` (and on ``recorder/matched``). On the code
+    before, a topic counted as matched on the recorder's side alone: in CI a client's first
+    goal and IK call were missing from the bag of a recorder started in the script.
+    """
+    from px100_control.ros.recorder import Recorder
+    from rclpy.node import Node
+    ns = f'px100_wm_{os.getpid()}'
+    events = f'/{ns}/compute_ik/_service_event'
+    server = node_process('ik_service', '--ros-args', '-r', f'__ns:=/{ns}')
+    probe = Node('writer_side_matched_probe', context=rclpy_context)
+    assert wait_until(lambda: probe.count_publishers(events) == 1, 30.0), server.output()[-2000:]
+    rec = Recorder(str(tmp_path / 'bag'), topics=[events], robot_name=ns, context=rclpy_context,
+                   write_tf=False, ready_timeout=0.5)
+    server.signal(signal.SIGSTOP)
+    try:
+        rec.start(wait=False)
+        topics = rec.node.topics
+        assert rec.wait_ready(10.0), 'not ready after its ready_timeout'
+        sub = topics.subs.get(events)
+        assert wait_until(lambda: sub is not None and sub.get_publisher_count() == 1, 10.0), \
+            'the recorder did not see the (stopped) server'
+        time.sleep(1.0)   # the stopped server: nothing can happen, nothing to wait for
+        assert events not in topics.matched, 'matched while the server could not know it'
+    finally:
+        server.signal(signal.SIGCONT)
+    try:
+        assert wait_until(lambda: events in topics.matched, 20.0), server.output()[-2000:]
+    finally:
+        rec.stop()
+        probe.destroy_node()

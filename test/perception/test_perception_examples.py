@@ -131,23 +131,34 @@ def _run(script, tmp_path):
             p.stop()
 
 
+def _evidence(proc) -> str:
+    """The script's warnings and errors first, then the ends of its stdout and stderr."""
+    lines = (proc.stdout + proc.stderr).splitlines()
+    flagged = [line for line in lines if any(word in line for word in
+                                             ('ERROR', 'WARN', 'Could not', 'Traceback'))]
+    return '\n'.join(['-- warnings and errors:'] + flagged[-40:] +
+                      ['-- stdout:', proc.stdout[-2000:], '-- stderr:', proc.stderr[-3000:]])
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 @pytest.mark.parametrize('script', sorted(CASES))
 def test_example_moves_every_object_where_it_meant(script, tmp_path):
     """The script runs to its end and every object rests on a spot it meant for it."""
     proc, before, after = _run(script, tmp_path)
-    log = proc.stdout[-3000:] + proc.stderr[-3000:]
+    log = _evidence(proc)
     assert proc.returncode == 0, log
     assert sorted(after) == sorted(before), log
     spots = CASES[script][1]
     if spots is None:           # pick_place: every object in the tray
         (cx, cy), half = TRAY
         for name, p in after.items():
-            assert abs(p[0] - cx) < half and abs(p[1] - cy) < half, (name, p, log)
+            assert abs(p[0] - cx) < half and abs(p[1] - cy) < half, \
+                f'{name} at {p.tolist()}, not in the tray\n{log}'
         return
     taken = []
     for name, p in sorted(after.items()):
         near = [s for s in spots[name] if np.hypot(p[0] - s[0], p[1] - s[1]) < TOLERANCE]
-        assert near and near[0] not in taken, (name, p.tolist(), spots[name], log)
+        assert near and near[0] not in taken, \
+            f'{name} at {p.tolist()}, not on a free spot of {spots[name]}\n{log}'
         taken.append(near[0])
