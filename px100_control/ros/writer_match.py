@@ -15,7 +15,9 @@ asks each publishing process (participant, from the publishers' GIDs) once throu
 nodes' ``get_parameter_types`` (no names: nothing is read or changed), again after a new
 subscription (:meth:`WriterSideCheck.reset`), and again every :data:`RETRY` s while unanswered
 (an answer sent before its client was matched is lost). A process none of whose nodes has
-parameter services (seen for :data:`UNASKABLE_GRACE` s) cannot be asked and is trusted.
+parameter services (seen for :data:`UNASKABLE_GRACE` s) cannot be asked and is trusted; one
+whose nodes the graph does not name yet (their list, ``ros_discovery_info``, comes apart from
+the endpoints) is not: a server stopped or starved before it sent that list was trusted so.
 """
 import time
 from typing import Dict, Iterable, List, Optional, Tuple
@@ -28,6 +30,8 @@ RETRY = 0.5
 UNASKABLE_GRACE = 1.0
 #: the graph topic every node publishes on: its publishers name the nodes of a participant
 ROSOUT = '/rosout'
+#: the node name the graph gives an endpoint whose participant's node list has not arrived
+UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
 
 
 def participant_of(info) -> Tuple:
@@ -84,6 +88,9 @@ class WriterSideCheck:
             if key in self._confirmed:
                 continue
             if not self._ask(key, nodes):
+                if not self._nodes_of(key, nodes):
+                    out.append(key)   # the graph does not name its nodes yet
+                    continue
                 first = self._unaskable.setdefault(key, time.monotonic())
                 if time.monotonic() - first < UNASKABLE_GRACE:
                     out.append(key)   # its services may not be discovered yet
@@ -120,13 +127,22 @@ class WriterSideCheck:
         if self._calls.get(key, (None,))[0] is future and future.result() is not None:
             self._confirmed.add(key)
 
-    def _service_of(self, key: Tuple, nodes: set) -> Optional[str]:
-        """Return the get_parameter_types service of a node of participant ``key``, if any."""
+    def _nodes_of(self, key: Tuple, nodes: set) -> List[Tuple[str, str]]:
+        """
+        Return the (namespace, name) the graph gives the nodes of participant ``key``.
+
+        Until a participant's node list (``ros_discovery_info``) arrives, the graph names its
+        endpoints' node ``_NODE_NAME_UNKNOWN_``: that names no node.
+        """
         if key[0] == 'gid':   # every node of the participant that logs: more to choose from
             nodes = nodes | {(i.node_namespace, i.node_name) for i in
                              self._node.get_publishers_info_by_topic(ROSOUT)
                              if participant_of(i) == key}
-        for ns, name in sorted(nodes):
+        return sorted((ns, name) for ns, name in nodes if name != UNKNOWN_NODE)
+
+    def _service_of(self, key: Tuple, nodes: set) -> Optional[str]:
+        """Return the get_parameter_types service of a node of participant ``key``, if any."""
+        for ns, name in self._nodes_of(key, nodes):
             wanted = f"{ns.rstrip('/')}/{name}/get_parameter_types"
             try:
                 services = self._node.get_service_names_and_types_by_node(name, ns)

@@ -18,6 +18,17 @@ import pytest
 pytestmark = pytest.mark.ros
 
 
+def _named(probe, events: str) -> bool:
+    """
+    Return True once the graph names the node of the server's event publisher.
+
+    Its participant's node list comes apart from the endpoints: a server stopped before it
+    arrived could not be asked (px100_control.ros.writer_match waits for the list).
+    """
+    pubs = probe.get_publishers_info_by_topic(events)
+    return len(pubs) == 1 and pubs[0].node_name == 'ik_service'
+
+
 def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_process, tmp_path):
     """Server stopped: not ready; resumed: ready, and its first call's events are in the bag."""
     from geometry_msgs.msg import PoseStamped
@@ -33,6 +44,7 @@ def test_ready_waits_for_the_servers_side_of_the_match(rclpy_context, node_proce
     assert wait_until(lambda: probe.count_publishers(events) == 1, 30.0), server.output()[-2000:]
     client = probe.create_client(ComputeIK, f'/{ns}/compute_ik')
     assert client.wait_for_service(timeout_sec=30.0), server.output()[-2000:]
+    assert wait_until(lambda: _named(probe, events), 30.0), server.output()[-2000:]
     executor = SingleThreadedExecutor(context=rclpy_context)
     executor.add_node(probe)
     rec = Recorder(str(tmp_path / 'bag'), topics=[events], robot_name=ns, context=rclpy_context,
@@ -83,7 +95,7 @@ def test_a_ready_recorder_counts_a_call_topic_matched_once_the_server_confirmed(
     events = f'/{ns}/compute_ik/_service_event'
     server = node_process('ik_service', '--ros-args', '-r', f'__ns:=/{ns}')
     probe = Node('writer_side_matched_probe', context=rclpy_context)
-    assert wait_until(lambda: probe.count_publishers(events) == 1, 30.0), server.output()[-2000:]
+    assert wait_until(lambda: _named(probe, events), 30.0), server.output()[-2000:]
     rec = Recorder(str(tmp_path / 'bag'), topics=[events], robot_name=ns, context=rclpy_context,
                    write_tf=False, ready_timeout=0.5)
     server.signal(signal.SIGSTOP)
