@@ -132,12 +132,13 @@ def _run(script, tmp_path):
 
 
 def _evidence(proc) -> str:
-    """The script's warnings and errors first, then the ends of its stdout and stderr."""
+    """Return the script's warnings and errors, then the ends of its stdout and stderr."""
     lines = (proc.stdout + proc.stderr).splitlines()
     flagged = [line for line in lines if any(word in line for word in
                                              ('ERROR', 'WARN', 'Could not', 'Traceback'))]
-    return '\n'.join(['-- warnings and errors:'] + flagged[-40:] +
-                      ['-- stdout:', proc.stdout[-2000:], '-- stderr:', proc.stderr[-3000:]])
+    parts = ['-- warnings and errors:', *flagged[-40:], '-- stdout:', proc.stdout[-2000:],
+             '-- stderr:', proc.stderr[-3000:]]
+    return '\n'.join(parts)
 
 
 @pytest.mark.ros
