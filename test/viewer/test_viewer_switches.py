@@ -4,7 +4,7 @@ import sys
 
 import pytest
 from viewer_support import canvas_pixels, dark_pixels, open_page, PORT_BASE, wait_for, \
-    wait_http
+    wait_http, wait_page_text
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'bag'))
@@ -30,8 +30,8 @@ def test_bringup_viewer_option_serves_the_page_with_the_scene(browser, node_proc
     assert counts[-1] > 0, 'the default scene has no bodies'
     page = open_page(browser, f'http://127.0.0.1:{port}')
     try:
-        page.wait_for_function('(t) => document.body.innerText.includes(t)',
-                               arg=f'world: {counts[-1]} bodies', timeout=20000)
+        wait_page_text(page, f'world: {counts[-1]} bodies', 60.0,
+                       log=lambda: proc.output()[-3000:])
     finally:
         page.close()
     assert proc.alive()

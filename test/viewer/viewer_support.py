@@ -22,6 +22,9 @@ PORT_BASE = int(os.environ.get('PX100_VIEWER_TEST_PORT', '8130'))
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                      reliability=ReliabilityPolicy.RELIABLE)
 NAMES = {4: 'SUCCEEDED', 5: 'CANCELED', 6: 'ABORTED', 1: 'ACCEPTED', 2: 'EXECUTING'}
+#: how often [ms] a page wait reads the page: on a timer, not at animation frames (playwright's
+#: default), which a starved software-rendered page draws seldom
+POLL_MS = 100
 #: the canvas part of the page (left of viser's control panel), for pixel checks
 CANVAS_CLIP = {'x': 0, 'y': 160, 'width': 640, 'height': 520}
 
@@ -162,14 +165,43 @@ def colour_pixels(img: np.ndarray, rgb, tol: int = 60) -> int:
     return int((np.abs(img.astype(int) - np.asarray(rgb)).max(axis=2) < tol).sum())
 
 
+def page_text(page) -> str:
+    """Return the page's text (its status panel), or why it could not be read."""
+    try:
+        return page.inner_text('body', timeout=5000)
+    except Exception as exc:  # noqa: B902 - evidence for a failure: never raise from here
+        return f'(page text unreadable: {exc})'
+
+
+def wait_page_text(page, text: str, timeout: float, log=None) -> None:
+    """
+    Wait until the page's text includes ``text`` [timeout s]; else fail with the page's text.
+
+    :param log: callable returning more evidence for the failure (a node's output)
+    """
+    try:
+        page.wait_for_function('(t) => document.body.innerText.includes(t)', arg=text,
+                               timeout=timeout * 1000, polling=POLL_MS)
+    except Exception as exc:  # noqa: B902 - playwright's TimeoutError, page closed
+        extra = f'\n-- log:\n{log()}' if log is not None else ''
+        kind = type(exc).__name__
+        raise AssertionError(f"'{text}' not on the page within {timeout:g} s ({kind}); the "
+                             f'page says:\n{page_text(page)[:3000]}{extra}') from None
+
+
 def open_page(browser, url: str, timeout: float = 60.0):
     """Open url in a new page, wait for viser's status panel; close the WebGL notice."""
     page = browser.new_page(viewport={'width': 1000, 'height': 700})
     page.goto(url)
     page.wait_for_selector('text=state', timeout=timeout * 1000)
     # the first joint_states reached the page: 'state t = 0.00 s at 10:34:00.712'
-    page.wait_for_function(
-        '() => /state t = [0-9.]+ s at /.test(document.body.innerText)', timeout=timeout * 1000)
+    try:
+        page.wait_for_function('() => /state t = [0-9.]+ s at /.test(document.body.innerText)',
+                               timeout=timeout * 1000, polling=POLL_MS)
+    except Exception as exc:  # noqa: B902 - playwright's TimeoutError
+        raise AssertionError(f'no joint_states time on the page within {timeout:g} s '
+                             f'({exc.__class__.__name__}); the page says:\n'
+                             f'{page_text(page)[:3000]}') from None
     page.wait_for_timeout(500)
     page.evaluate("() => document.querySelectorAll('.mantine-Notification-closeButton')"
                   '.forEach(b => b.click())')
