@@ -143,7 +143,7 @@ def _start(key, ns, tmp, replay_bag, executor):
         ros_args += ['-p', f'port:={_free_port()}']
     # faulthandler: a process that never comes up is sent SIGABRT and prints where it hangs
     env = dict(os.environ, PX100_EXECUTOR=executor, PYTHONUNBUFFERED='1', PYTHONFAULTHANDLER='1')
-    log = open(os.path.join(tmp, f'{ns.strip("/")}.log'), 'w+b')
+    log = open(os.path.join(tmp, f'{ns.strip("/")}_{key}.log'), 'w+b')
     proc = subprocess.Popen([executable_path(name), *args, *ros_args], stdout=log,
                             stderr=subprocess.STDOUT, env=env)
     return proc, log
@@ -360,7 +360,7 @@ class _MoveWatcher:
         from sensor_msgs.msg import JointState
         import threading
         self.node = Node('move_watcher', namespace=ns, context=ctx)
-        self.setpoints = 0
+        self.setpoints, self.goals_sent = 0, 0
         self.action = ActionClient(self.node, FollowJointTrajectory,
                                    'arm_controller/follow_joint_trajectory')
         self.node.create_subscription(JointState, 'commands/joint_setpoints', self._on_sp, 100)
@@ -382,12 +382,20 @@ class _MoveWatcher:
         goal.trajectory.points = [JointTrajectoryPoint(positions=[1.0], time_from_start=Duration(
             sec=int(seconds)))]
         if self.action.server_is_ready():
+            self.goals_sent += 1
             self.executor.create_task(lambda: self.action.send_goal_async(goal))
 
     def close(self):
         self.executor.shutdown(timeout_sec=2.0)
         self.thread.join(5.0)
         self.node.destroy_node()
+
+
+def _log_tail(log, size: int = 1500) -> str:
+    """Return the end of a process's log file (open, being written) without moving its end."""
+    log.flush()
+    with open(log.name, 'rb') as f:
+        return f.read().decode('utf-8', 'replace')[-size:]
 
 
 def _move_round(graph, rng, tmp, index):
@@ -406,8 +414,12 @@ def _move_round(graph, rng, tmp, index):
                 watcher.send_waist_move(4)
             time.sleep(0.25)
         if watcher.setpoints < 20:
+            publishers = watcher.node.count_publishers('commands/joint_setpoints')
             problems.append(f'no move streamed (setpoints seen: {watcher.setpoints}; '
-                            f'not up: {missing})')
+                            f'not up: {missing}; goals sent: {watcher.goals_sent}; action '
+                            f'server ready: {watcher.action.server_is_ready()}; setpoint '
+                            f'publishers: {publishers})\n-- trajectory_server:\n'
+                            f"{_log_tail(procs['trajectory_server'][1])}")
         time.sleep(rng.uniform(0.0, 0.3))
         for name in rng.sample(CORE, len(CORE)):    # as launch: every process, any order
             _stop(procs[name][0], rng.choice(('sigint', 'sigint_twice')), rng)
