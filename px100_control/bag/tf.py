@@ -20,7 +20,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 from px100_control.errors import Px100Error, RobotModelError
 from px100_control.kinematics.rotations import matrix_to_quaternion
-from px100_control.models.urdf_chain import load_urdf
+from px100_control.models.urdf_tree import load_urdf_tree
 from px100_control.wire.cdr import tf_message
 
 TF_TYPE = 'tf2_msgs/msg/TFMessage'
@@ -56,7 +56,7 @@ class TfTree:
     """
 
     def __init__(self, urdf_xml: str, frame_prefix: str = ''):
-        urdf = load_urdf(urdf_xml)
+        urdf = load_urdf_tree(urdf_xml)
         self.frame_prefix = frame_prefix
         joints = []
         for j in urdf.robot.joints:

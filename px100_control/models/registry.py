@@ -22,7 +22,8 @@ from px100_control.errors import RobotModelError, UnknownRobotError
 from px100_control.kinematics.dh import dh_to_screws, DHRow, tool_from_xyz_rpy
 from px100_control.kinematics.se3 import screw_axis
 from px100_control.models.robot_model import GripperSpec, RobotModel
-from px100_control.models.urdf_chain import chain_to_poe, load_urdf
+from px100_control.models.urdf_chain import chain_to_poe
+from px100_control.models.urdf_tree import load_urdf_tree
 from px100_control.models.urdf_writer import urdf_from_model
 from px100_control.paths import data_path
 import yaml
@@ -105,7 +106,7 @@ def _from_table(spec: dict) -> Dict:
 
 
 def _from_urdf(spec: dict, urdf_xml: str) -> Dict:
-    urdf = load_urdf(urdf_xml)
+    urdf = load_urdf_tree(urdf_xml)
     names = tuple(spec['arm_joints'])
     S, M, limits = chain_to_poe(urdf, spec.get('base_frame', 'base_link'),
                                 spec.get('ee_frame', 'ee_gripper_link'), names)

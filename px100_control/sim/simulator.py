@@ -47,7 +47,7 @@ from px100_control.control.gripper import GripperLinkage
 from px100_control.control.pid import Pid, PidGains
 from px100_control.errors import InvalidInputError, JointLimitError, UnknownJointError
 from px100_control.kinematics.kernels import quaternion_xyzw as _quaternion_xyzw
-from px100_control.models.urdf_chain import load_urdf
+from px100_control.models.urdf_tree import load_urdf_tree
 from px100_control.sim.mjcf import build_model, GRAVITY
 from px100_control.sim.scene import check_reach
 
@@ -276,7 +276,7 @@ def _urdf_joint_dynamics(urdf_xml: Optional[str]) -> Dict[str, Tuple[float, floa
     if not urdf_xml:
         return {}
     out = {}
-    for j in load_urdf(urdf_xml).robot.joints:
+    for j in load_urdf_tree(urdf_xml).robot.joints:
         dyn = j.dynamics
         if dyn is not None:
             out[j.name] = (float(dyn.damping or 0.0), float(dyn.friction or 0.0))
@@ -1129,7 +1129,7 @@ def _horn_inertia(urdf_xml: Optional[str], gripper_joint: str) -> float:
     default = 1.2e-6
     if not urdf_xml:
         return default
-    urdf = load_urdf(urdf_xml)
+    urdf = load_urdf_tree(urdf_xml)
     joints = {j.name: j for j in urdf.robot.joints}
     links = {link.name: link for link in urdf.robot.links}
     joint = joints.get(gripper_joint)
