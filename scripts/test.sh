@@ -32,7 +32,10 @@ PYTEST=(python -m pytest -q -rfER -p no:cacheprovider --durations=20 "${RERUN_AR
 if [ "$WORKERS" -gt 0 ] && [ $# -eq 0 ]; then
   # Two phases: everything but the stress package on the workers, then the stress package
   # (test/stress: timing bounds under injected faults and load, which assume the machine is
-  # its own) in one process. The slowest 20 tests of both phases close the run.
+  # its own) in one process. The slowest 20 tests of both phases close the run, then the 20
+  # modules that cost the most CPU.
+  # each test's CPU (test/conftest.py writes out/cpu/<worker>.jsonl): this run's only
+  rm -rf out/cpu
   mkdir -p out
   echo "[test] phase 1 of 2: $WORKERS workers, ROS_DOMAIN_ID=$ROS_DOMAIN_ID..$(( ROS_DOMAIN_ID + WORKERS - 1 )), all but the stress tests"
   status=0
@@ -40,7 +43,7 @@ if [ "$WORKERS" -gt 0 ] && [ $# -eq 0 ]; then
   echo "[test] phase 2 of 2: the stress tests (test/stress), one process, ROS_DOMAIN_ID=$ROS_DOMAIN_ID"
   stress_status=0
   "${PYTEST[@]}" -m stress --junitxml=out/junit_stress.xml || stress_status=$?
-  python scripts/slowest_tests.py out/junit_parallel.xml out/junit_stress.xml
+  python scripts/slowest_tests.py --cpu out/cpu out/junit_parallel.xml out/junit_stress.xml
   exit $(( status != 0 ? status : stress_status ))
 fi
 if [ "$WORKERS" -gt 0 ]; then

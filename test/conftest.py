@@ -344,6 +344,36 @@ def _no_stray_processes(request):
 _RERUN_FAILURES = []
 
 
+def _cpu_seconds() -> float:
+    """Return the user + system CPU [s] of this process and of its children waited for."""
+    import resource
+    own, children = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
+                                                     resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """
+    Note each test's CPU and wall time in out/cpu/<worker>.jsonl (scripts/slowest_tests.py).
+
+    CPU is this process's and its children's once reaped: node processes of the test's own,
+    and a module fixture's (the browser, a shared bringup) in the module's last test, so sums
+    per module are what a module costs.
+    """
+    import json
+    import time
+    cpu, wall = _cpu_seconds(), time.monotonic()
+    yield
+    row = {'test': item.nodeid, 'cpu_s': round(_cpu_seconds() - cpu, 3),
+           'wall_s': round(time.monotonic() - wall, 3)}
+    folder = os.path.join(ROOT, 'out', 'cpu')
+    os.makedirs(folder, exist_ok=True)
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'main')
+    with open(os.path.join(folder, f'{worker}.jsonl'), 'a', encoding='utf-8') as f:
+        f.write(json.dumps(row) + '\n')
+
+
 def pytest_runtest_logreport(report):
     """Keep why a test failed before a rerun (``--reruns``) passed it: out/reruns.log."""
     if report.outcome != 'rerun':
