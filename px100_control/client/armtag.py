@@ -21,7 +21,8 @@ Differences from Interbotix (documented, on purpose):
   prefix (``camera_color_optical_frame`` -> ``px100/camera_color_optical_frame``). The URDF has
   no ``ar_tag_link``: its pose is ``ee_arm_link``'s with the tag's mounting offset.
 - Refusals return False with the reason logged: the tag not seen in a frame (out of view,
-  occluded), no camera frames within ``FRAME_TIMEOUT``, no tf path, and a camera whose pose is
+  occluded), no camera frames within ``FRAME_TIMEOUT``, no tf path within ``TF_TIMEOUT`` (a
+  transform not on tf yet is waited for, as upstream's lookups), and a camera whose pose is
   already on ``/tf_static`` in the arm's tree (the camera node's ``publish_pose`` true):
   publishing ``ref_frame`` -> ``arm_base_frame`` then would make a tf loop, two publishers for
   one frame; start the camera with ``publish_pose:=false`` to let the ArmTag locate it.
@@ -51,6 +52,9 @@ TF_STATIC_QOS = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCA
 IMAGE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 #: longest wait for one camera frame [s] (the camera renders at 5 Hz on a loaded machine)
 FRAME_TIMEOUT = 10.0
+#: longest wait for a transform not on tf yet [s] (upstream's lookup_transform timeout; a
+#: script started beside bringup may ask before the arm's first /tf arrived)
+TF_TIMEOUT = 4.0
 
 
 def image_array(msg: Image) -> np.ndarray:
@@ -215,7 +219,7 @@ class InterbotixArmTagInterface:
             if position_only:
                 T_cam_tag[:3, :3] = self._tag_in(self.image_frame_id)[:3, :3]
             T_tag_base = np.linalg.inv(self._tag_in(base))
-            T_ref_cam = self.tfBuffer.lookup(ref, self.image_frame_id)
+            T_ref_cam = self._lookup(ref, self.image_frame_id)
         except InvalidInputError as exc:
             log.error(f'ArmTag: no camera -> arm base transform: {exc}')
             return False
@@ -233,12 +237,21 @@ class InterbotixArmTagInterface:
         """Return T_frame_tag: the arm_tag_frame from tf, else ee_arm_link with the offset."""
         tag = self._resolve(self.arm_tag_frame)
         if tag in self.tfBuffer.frames():
-            return self.tfBuffer.lookup(frame, tag)
+            return self._lookup(frame, tag)
         parent = tag.rsplit('/', 1)[0] + '/' + armtag.PARENT_LINK if '/' in tag \
             else armtag.PARENT_LINK
         offset = np.eye(4)
         offset[:3, 3] = armtag.OFFSET
-        return self.tfBuffer.lookup(frame, parent) @ offset
+        return self._lookup(frame, parent) @ offset
+
+    def _lookup(self, target: str, source: str) -> np.ndarray:
+        """
+        Return T_target_source from tf, waiting up to TF_TIMEOUT [s] for it to be known.
+
+        :raises InvalidInputError: still no tf path then (the text names the frames known)
+        """
+        T = self.tfBuffer.wait_for(target, source, TF_TIMEOUT)
+        return self.tfBuffer.lookup(target, source) if T is None else T
 
     def _refuse_loop(self, ref: str, base: str) -> None:
         """Raise when ``base`` is already an ancestor of ``ref`` (publishing would loop)."""

@@ -92,6 +92,55 @@ def test_publishes_the_camera_to_base_transform_within_5mm_and_1deg(env):
     assert math.isclose(tag.yaw, math.atan2(R[1, 0], R[0, 0]), abs_tol=1e-6)
 
 
+def test_an_arm_transform_not_on_tf_yet_is_waited_for(env, monkeypatch):
+    """
+    A script that asks before the arm's transforms arrived (started beside bringup) gets them.
+
+    The tag's buffer is swapped for one that holds back every transform but the camera's
+    optical frame until a lookup has failed: the call must wait for the arm's frames
+    (TF_TIMEOUT), not refuse at once. Runs before the camera is put under the base (a loop).
+    """
+    from px100_control.client.armtag import quaternion_of
+    from px100_control.perception.camera import LINK_TO_OPTICAL
+    from px100_control.perception.tf_buffer import TfBuffer
+    tag, _ = env
+
+    class LateArmTf(TfBuffer):
+        def __init__(self, edges):
+            super().__init__()
+            self.asked_early, self.edges, self.messages = False, edges, []
+
+        def add_message(self, msg):
+            if not self.asked_early:
+                self.messages.append(msg)       # arrives, but only once a lookup failed
+                return []
+            return super().add_message(msg)
+
+        def lookup(self, target, source):
+            try:
+                return super().lookup(target, source)
+            except Exception:
+                if not self.asked_early:
+                    self.asked_early = True
+                    for parent, child, T in self.edges:     # /tf_static, late
+                        super().set_transform(parent, child, T[:3, 3], quaternion_of(T[:3, :3]))
+                    for msg in self.messages:               # and /tf
+                        super().add_message(msg)
+                raise
+
+    known = tag.tfBuffer
+    edges = [(known.ancestors(f)[0], f, known.lookup(known.ancestors(f)[0], f))
+             for f in known.frames() if known.ancestors(f) and 'camera' not in f and f != BASE]
+    late = LateArmTf(edges)
+    # what the camera node put on /tf_static (publish_pose false): the optical frame only
+    late.set_transform('px100/camera_link', OPTICAL, (0.0, 0.0, 0.0),
+                       quaternion_of(LINK_TO_OPTICAL))
+    monkeypatch.setattr(tag, 'tfBuffer', late)
+    lines = _errors(tag, monkeypatch)
+    assert tag.find_ref_to_arm_base_transform(num_samples=1) is True, lines
+    assert late.asked_early
+
+
 def test_tag_out_of_view_is_refused(env, monkeypatch):
     """The camera without its tag: False, the reason names the tag, no transform published."""
     from px100_control.client import get_interbotix_global_node
