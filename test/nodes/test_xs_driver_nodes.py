@@ -111,7 +111,18 @@ def driver(processes):
 @pytest.fixture(scope='module')
 def probe(driver, ros_ctx, spinner):
     p = Probe(ros_ctx, spinner)
-    assert p.srv_set_op_modes.wait_for_service(timeout_sec=30.0), driver.output()[-3000:]
+    if not p.srv_set_op_modes.wait_for_service(timeout_sec=30.0):
+        # what this node's graph knows: was the driver's process not discovered at all, or
+        # only its service not matched?
+        nodes = p.node.get_node_names_and_namespaces()
+        try:
+            services = sorted(n for n, _ in p.node.get_service_names_and_types_by_node(
+                'sim_driver', NS))
+        except Exception as exc:  # noqa: B902 - rclpy's NodeNameNonExistentError
+            services = f'none ({type(exc).__name__})'
+        pytest.fail(f'no {NS}/set_operating_modes in 30 s; driver alive: {driver.alive()}; '
+                    f"nodes seen: {nodes}; sim_driver's services seen: {services}\n"
+                    '-- driver:\n' + driver.output()[-3000:])
     assert wait_for(lambda: p.js is not None, 10.0), driver.output()[-3000:]
     return p
 
