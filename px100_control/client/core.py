@@ -597,18 +597,27 @@ class InterbotixRobotXSCore:
         """
         Sleep ``seconds`` of simulated time.
 
-        At real_time_factor 1 that is wall time. Otherwise the in-process driver owns the clock
-        and may run slower than asked on a loaded machine, so the wait follows the stamps of
-        joint_states (simulated time) until they advanced by ``seconds``; if they stop coming,
-        it gives up after the wall time the factor promised, four times over, plus 2 s.
+        The wait follows the stamps of joint_states (the driver's time) until they advanced by
+        ``seconds``. At real_time_factor 1 it also lasts ``seconds`` of wall time (as on the
+        real robot; a driver on time takes no longer), so a simulation that fell behind (its
+        process starved, then catching up on its stamps) still gives a grasp its time; if the
+        stamps stop coming it gives up after 2 x ``seconds`` + 2 s. Otherwise the in-process
+        driver owns the clock and may run slower than asked on a loaded machine; if its stamps
+        stop, the wait ends after the wall time the factor promised, four times over, plus 2 s.
+        Before any joint_states: ``seconds`` / real_time_factor of wall time.
         """
         if not seconds > 0:
             return
-        if self.real_time_factor == 1.0 or self.joint_states is None:
+        if self.joint_states is None:
             time.sleep(seconds / self.real_time_factor)
             return
+        start = time.monotonic()
         target_ns = self._js_stamp_ns() + int(seconds * 1e9)
-        give_up = time.monotonic() + 4.0 * seconds / self.real_time_factor + 2.0
+        if self.real_time_factor == 1.0:
+            time.sleep(seconds)
+            give_up = start + 2.0 * seconds + 2.0
+        else:
+            give_up = start + 4.0 * seconds / self.real_time_factor + 2.0
         while self._js_stamp_ns() < target_ns and time.monotonic() < give_up:
             time.sleep(0.001)
 
