@@ -52,6 +52,8 @@ setup(
     license='Apache-2.0',
     tests_require=['pytest'],
     entry_points={
-        'console_scripts': [f'{name} = {target}' for name, target in EXECUTABLES.items()],
+        # each through px100_control.entry_points (a stop signal during its imports is quiet)
+        'console_scripts': [f'{name} = px100_control.entry_points:{name}'
+                            for name in EXECUTABLES],
     },
 )

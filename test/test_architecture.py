@@ -33,7 +33,7 @@ PURE_MODULES = ('errors.py', 'paths.py', 'parameters.py')
 #: package or packages of a strictly lower rank
 LAYERS = {'errors': 0, 'paths': 0, 'parameters': 0, '__init__': 0, 'wire': 1, 'kinematics': 2,
           'models': 3, 'control': 4, 'bag': 4, 'tools': 4, 'perception': 4, 'sim': 5,
-          'viewer': 5, 'ros': 6, 'client': 7}
+          'viewer': 5, 'ros': 6, 'client': 7, 'entry_points': 8}
 
 
 def _forbidden(module: str) -> bool:

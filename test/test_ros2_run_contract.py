@@ -48,3 +48,50 @@ def test_params_file_is_valid_ros_yaml():
     assert params['/**']['ros__parameters']['robot_model'] == 'px100'
     for node in ('sim_driver', 'ik_service', 'trajectory_server'):
         assert 'ros__parameters' in params['/**/' + node], node
+
+
+def test_entry_points_run_what_setup_py_names():
+    """px100_control.entry_points.TARGETS is setup.py's EXECUTABLES, one function per name."""
+    import ast
+    from px100_control import entry_points
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, 'setup.py'), encoding='utf-8') as f:
+        tree = ast.parse(f.read())
+    exes = next(ast.literal_eval(n.value) for n in ast.walk(tree) if isinstance(n, ast.Assign)
+                and any(getattr(t, 'id', '') == 'EXECUTABLES' for t in n.targets))
+    assert entry_points.TARGETS == exes
+    assert all(callable(getattr(entry_points, name)) for name in exes)
+
+
+def _importing_numpy(pid: int) -> bool:
+    """Return True once the process has mapped numpy's core (its start-up imports run)."""
+    try:
+        with open(f'/proc/{pid}/maps', encoding='utf-8') as f:
+            return '_multiarray_umath' in f.read()
+    except OSError:
+        return False
+
+
+@pytest.mark.parametrize('name,how', [('camera', 'SIGINT'), ('sim_driver', 'SIGTERM'),
+                                      ('bringup', 'SIGINT')])
+def test_a_stop_signal_during_start_up_imports_ends_quietly(name, how):
+    """
+    Ctrl-C while the executable still imports (numpy mapped, rclpy and MuJoCo to come): exit 0.
+
+    CI: ``bringup``'s camera process, stopped with the group right after bringup was up,
+    printed a KeyboardInterrupt traceback from inside numpy's import.
+    """
+    import signal
+    import time
+    proc = NodeProcess(name, [])
+    try:
+        deadline = time.monotonic() + 30.0
+        while not _importing_numpy(proc.pid) and proc.alive() and time.monotonic() < deadline:
+            time.sleep(0.002)
+        assert _importing_numpy(proc.pid), f'{name} never started importing\n{proc.output()}'
+        proc.signal(getattr(signal, how))
+        rc = proc.proc.wait(30)
+    finally:
+        proc.stop()
+    out = proc.output()
+    assert rc == 0 and 'Traceback' not in out, f'{name}: exit {rc}\n{out[-3000:]}'
