@@ -74,7 +74,15 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
             if not line and proc.poll() is not None:
                 break
         assert 'MOVING' in line, proc.stderr.read()[-3000:]
-        time.sleep(2.0)  # mid-move: the waist turns at about 0.33 rad/s
+        # mid-move: the waist turns at about 0.33 rad/s once the goal runs; with a Recorder the
+        # goal waits until the recorder matched the servers (CI: no goal running 2 s after
+        # MOVING)
+        moving = time.monotonic()
+        while not watcher.after(0.0) or watcher.after(0.0)[-1][1] < 0.5:
+            assert time.monotonic() < deadline and proc.poll() is None, \
+                f'the waist never reached 0.5 rad: {watcher.after(0.0)[-3:]}'
+            time.sleep(0.01)
+        print(f'waist at 0.5 rad {time.monotonic() - moving:.2f} s after MOVING')
         t_sig = time.time()  # the clock of the driver's stamps
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=30.0)
