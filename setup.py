@@ -2,25 +2,14 @@
 from glob import glob
 import os
 
+from px100_control.entry_points import TARGETS
 from setuptools import find_packages, setup
 
 PACKAGE = 'px100_control'
 
-# Executables resolved by `ros2 run px100_control <name>` (lib/px100_control/<name>).
-EXECUTABLES = {
-    'sim_driver': 'px100_control.ros.sim_driver_node:main',
-    'ik_service': 'px100_control.ros.ik_service_node:main',
-    'trajectory_server': 'px100_control.ros.trajectory_server_node:main',
-    'state_publisher': 'px100_control.ros.state_publisher_node:main',
-    'bringup': 'px100_control.ros.bringup:main',
-    'record': 'px100_control.ros.recorder_node:main',
-    'replay': 'px100_control.ros.replayer_node:main',
-    'inspect': 'px100_control.bag.inspect_cli:main',
-    'bag_reindex': 'px100_control.bag.reindex:main',
-    'viewer': 'px100_control.ros.viewer_node:main',
-    'pc_filter': 'px100_control.ros.pc_filter_node:main',
-    'camera': 'px100_control.ros.camera_node:main',
-}
+# Executables resolved by `ros2 run px100_control <name>` (lib/px100_control/<name>): the names
+# of px100_control/entry_points.py (its TARGETS: name -> module:main), each started through it
+EXECUTABLES = sorted(TARGETS)
 
 
 def _data(pattern):
@@ -52,7 +41,6 @@ setup(
     license='Apache-2.0',
     tests_require=['pytest'],
     entry_points={
-        # each through px100_control.entry_points (a stop signal during its imports is quiet)
         'console_scripts': [f'{name} = px100_control.entry_points:{name}'
                             for name in EXECUTABLES],
     },

@@ -13,7 +13,7 @@ back once imported, so an interrupted run still fails as an interrupted run.
 import importlib
 import signal
 
-#: executable -> 'module:function' (as setup.py's EXECUTABLES; test_ros2_run_contract checks)
+#: executable -> 'module:function': what setup.py installs (lib/px100_control/<name>)
 TARGETS = {
     'sim_driver': 'px100_control.ros.sim_driver_node:main',
     'ik_service': 'px100_control.ros.ik_service_node:main',

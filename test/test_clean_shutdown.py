@@ -24,7 +24,6 @@ rounds) or ``PX100_SHUTDOWN_PRODUCT=1``. ``PX100_SHUTDOWN_REPEATS=N`` sets the r
 form. The random choices are seeded by the case, so a failure repeats with the same delays. The
 figures of the last run of each case are appended to ``out/shutdown_stress.jsonl``.
 """
-import ast
 import json
 import os
 import random
@@ -75,11 +74,8 @@ ONE_SHOT = ('inspect', 'bag_reindex')
 
 def test_every_long_running_executable_is_stopped():
     """EXECUTABLES holds every executable of setup.py that runs until stopped."""
-    with open(os.path.join(ROOT, 'setup.py'), encoding='utf-8') as f:
-        tree = ast.parse(f.read())
-    exes = next(ast.literal_eval(n.value) for n in ast.walk(tree) if isinstance(n, ast.Assign)
-                and any(getattr(t, 'id', '') == 'EXECUTABLES' for t in n.targets))
-    assert {exe for exe, _, _ in EXECUTABLES.values()} == set(exes) - set(ONE_SHOT)
+    from px100_control.entry_points import TARGETS
+    assert {exe for exe, _, _ in EXECUTABLES.values()} == set(TARGETS) - set(ONE_SHOT)
 
 
 @pytest.fixture(scope='module')

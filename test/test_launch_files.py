@@ -28,14 +28,9 @@ CORE = {'sim_driver', 'ik_service', 'trajectory_server'}
 
 
 def _setup_executables():
-    """Return the executable names of setup.py's EXECUTABLES (read by AST)."""
-    with open(os.path.join(ROOT, 'setup.py'), encoding='utf-8') as f:
-        tree = ast.parse(f.read())
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Assign) and any(
-                getattr(t, 'id', '') == 'EXECUTABLES' for t in node.targets):
-            return set(ast.literal_eval(node.value))
-    raise AssertionError('setup.py has no EXECUTABLES')
+    """Return the executable names setup.py installs (px100_control/entry_points.py)."""
+    from px100_control.entry_points import TARGETS
+    return set(TARGETS)
 
 
 def _check_executables(found):

@@ -1,5 +1,4 @@
 """The parameter schemas: config files checked against them, descriptors and --help from them."""
-import ast
 import glob
 import math
 import os
@@ -169,11 +168,8 @@ def test_config_px100_states_the_defaults():
 
 def test_help_covers_every_executable():
     """HELP_SCHEMAS names every executable setup.py installs (the test below runs each)."""
-    with open(os.path.join(ROOT, 'setup.py'), encoding='utf-8') as f:
-        tree = ast.parse(f.read())
-    exes = next(ast.literal_eval(n.value) for n in ast.walk(tree) if isinstance(n, ast.Assign)
-                and any(getattr(t, 'id', '') == 'EXECUTABLES' for t in n.targets))
-    assert set(HELP_SCHEMAS) == set(exes)
+    from px100_control.entry_points import TARGETS
+    assert set(HELP_SCHEMAS) == set(TARGETS)
 
 
 @pytest.mark.slow                  # one process start per executable

@@ -50,17 +50,15 @@ def test_params_file_is_valid_ros_yaml():
         assert 'ros__parameters' in params['/**/' + node], node
 
 
-def test_entry_points_run_what_setup_py_names():
-    """px100_control.entry_points.TARGETS is setup.py's EXECUTABLES, one function per name."""
-    import ast
+def test_installed_scripts_are_the_entry_points():
+    """The install's console scripts are entry_points.TARGETS, each through its function."""
+    from importlib import metadata
     from px100_control import entry_points
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    with open(os.path.join(root, 'setup.py'), encoding='utf-8') as f:
-        tree = ast.parse(f.read())
-    exes = next(ast.literal_eval(n.value) for n in ast.walk(tree) if isinstance(n, ast.Assign)
-                and any(getattr(t, 'id', '') == 'EXECUTABLES' for t in n.targets))
-    assert entry_points.TARGETS == exes
-    assert all(callable(getattr(entry_points, name)) for name in exes)
+    scripts = {e.name: e.value for e in metadata.distribution('px100_control').entry_points
+               if e.group == 'console_scripts'}
+    assert scripts == {name: f'px100_control.entry_points:{name}'
+                       for name in entry_points.TARGETS}
+    assert all(callable(getattr(entry_points, name)) for name in entry_points.TARGETS)
 
 
 def _importing_numpy(pid: int) -> bool:
