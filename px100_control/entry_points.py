@@ -6,9 +6,10 @@ own stop handlers (:func:`px100_control.ros.common.install_stop_signals`) only o
 imported: Ctrl-C, or ``ros2 launch``'s SIGINT to the process group, landing while numpy, rclpy
 or MuJoCo were still being imported printed a KeyboardInterrupt traceback (bringup's camera
 process, stopped right after bringup said it was up). Here SIGINT and SIGTERM end the process
-with status 0 and no traceback until the executable installs its handlers: nothing exists yet
-to tear down. The one-shot tools (``inspect``, ``bag_reindex``) get Python's default handlers
-back once imported, so an interrupted run still fails as an interrupted run.
+with status 0 and no traceback until the executable installs its handlers (during the imports
+once they are done): nothing exists yet to tear down. The one-shot tools (``inspect``,
+``bag_reindex``) get Python's default handlers back once imported, so an interrupted run still
+fails as an interrupted run.
 """
 import importlib
 import signal
@@ -31,6 +32,12 @@ TARGETS = {
 #: tools that end by themselves: Python's own SIGINT handling once their module is imported
 ONE_SHOT = ('inspect', 'bag_reindex')
 _STOP = (signal.SIGINT, signal.SIGTERM)
+#: stop signals received while the executable's module was being imported
+_RECEIVED = []
+
+
+def _note(signum, frame):
+    _RECEIVED.append(signum)
 
 
 def _exit_quietly(signum, frame):
@@ -38,13 +45,21 @@ def _exit_quietly(signum, frame):
 
 
 def run(name: str):
-    """Import the executable's module with quiet stop signals, then call its main."""
-    previous = {sig: signal.signal(sig, _exit_quietly) for sig in _STOP}
+    """
+    Import the executable's module with quiet stop signals, then call its main.
+
+    During the import a signal is only noted (an exception raised inside a C extension's
+    initialisation, MuJoCo's, became "ImportError: initialization failed" with a traceback);
+    the process then ends with status 0 once the import is done. From then until the
+    executable installs its own handlers a signal raises SystemExit(0).
+    """
+    previous = {sig: signal.signal(sig, _note) for sig in _STOP}
     module, function = TARGETS[name].split(':')
     main = getattr(importlib.import_module(module), function)
-    if name in ONE_SHOT:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+    if _RECEIVED:
+        raise SystemExit(0)
+    for sig, handler in previous.items():
+        signal.signal(sig, handler if name in ONE_SHOT else _exit_quietly)
     return main()
 
 
