@@ -55,17 +55,32 @@ def _add_arguments(parser) -> None:
 
 
 def start_camera(argv: List[str]) -> Optional[subprocess.Popen]:
-    """Start the ``camera`` executable with the ROS arguments of ``argv``; return it."""
+    """
+    Start the ``camera`` executable with the ROS arguments of ``argv``; return it.
+
+    It starts with SIGINT ignored (kept across exec, and Python keeps an ignored SIGINT) until
+    its entry point takes SIGINT over: a Ctrl-C to the process group that lands while its
+    interpreter still starts would print a KeyboardInterrupt traceback (CI: the group stopped
+    right after bringup was up). :func:`stop_camera` ends it with SIGTERM.
+    """
     ros_args = argv[argv.index('--ros-args'):] if '--ros-args' in argv else []
-    return subprocess.Popen([executable_path('camera'), *ros_args])
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        return subprocess.Popen([executable_path('camera'), *ros_args])
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def stop_camera(proc: Optional[subprocess.Popen], timeout: float = 10.0) -> None:
-    """Stop the camera process (SIGINT, then SIGKILL after ``timeout`` s)."""
+    """
+    Stop the camera process (SIGTERM, then SIGKILL after ``timeout`` s).
+
+    SIGTERM, which the camera takes as SIGINT: it may still ignore SIGINT if it is starting.
+    """
     if proc is None:
         return
     if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(signal.SIGTERM)
     try:
         proc.wait(timeout)
     except subprocess.TimeoutExpired:
