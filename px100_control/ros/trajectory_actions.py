@@ -16,6 +16,7 @@ Every goal, cancel and result call is published as service introspection events
 """
 import atexit
 import threading
+from typing import Optional
 import weakref
 
 from action_msgs.msg import GoalInfo, GoalStatus
@@ -33,7 +34,6 @@ from rclpy.action import CancelResponse, GoalResponse
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
 ARM_ACTION = 'arm_controller/follow_joint_trajectory'
@@ -125,8 +125,6 @@ class TrajectoryActions:
                 cancel_callback=self._on_gripper_cancel)
             self._pub_setpoint = self.node.create_publisher(
                 JointState, name('commands/joint_setpoints'), 10)
-            self.node.create_subscription(JointState, name('joint_states'),
-                                          self._on_joint_states, qos_profile_sensor_data)
         rate = float(server.get_parameter('action_monitor_rate').value)
         self.node.create_timer(1.0 / rate, self._on_monitor)
         self._executor = SingleThreadedExecutor(context=server.context)
@@ -230,12 +228,19 @@ class TrajectoryActions:
         return g.tag.handle, fb
 
     # ------------------------------------------------------------------ gripper
-    def _on_joint_states(self, msg: JointState) -> None:
-        names = list(msg.name)
-        if self._finger_joint in names:
-            i = names.index(self._finger_joint)
-            pick = (lambda a: a[i] if i < len(a) else 0.0)
-            self._finger = (pick(msg.position), pick(msg.velocity), pick(msg.effort))
+    @property
+    def finger_joint(self) -> Optional[str]:
+        """Return the finger joint whose joint_states the gripper action follows (or None)."""
+        return self._finger_joint if self.gripper is not None else None
+
+    def note_finger(self, position: float, velocity: float, effort: float) -> None:
+        """
+        Take the finger's measured state [m, m/s, effort units] from the server's joint_states.
+
+        The server's subscription feeds it: a second subscription here woke this thread's
+        executor 100 times a second for nothing else.
+        """
+        self._finger = (position, velocity, effort)
 
     def _gripper_settings(self) -> GripperSettings:
         p = self._server.get_parameter

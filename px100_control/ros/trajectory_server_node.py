@@ -75,6 +75,7 @@ class TrajectoryServerNode(Node):
         self._queue_delay = QueueDelay()
         self._js_map_names = None
         self._js_map = None
+        self._js_finger = None       # index of the gripper's finger in joint_states
         # late watchdog checks (the node not scheduled, a publish blocked): logged with their cause
         self._stalls = StallMeter(WATCHDOG_PERIOD, STALL_WARN)
         self._last_stall = None   # (steady ns when noticed, Stall)
@@ -119,9 +120,9 @@ class TrajectoryServerNode(Node):
     # ------------------------------------------------------------------ inputs
     def _on_joint_states(self, msg: JointState) -> None:
         if msg.name != self._js_map_names:
-            self._js_map_names = list(msg.name)
-            self._js_map = [(i, self._index[x]) for i, x in enumerate(msg.name)
-                            if x in self._index]
+            self._map_names(list(msg.name))
+        if self._js_finger is not None:
+            self._note_finger(msg, self._js_finger)
         pos = msg.position
         values = [(j, pos[i]) for i, j in self._js_map if i < len(pos)]
         with self._lock:
@@ -136,6 +137,20 @@ class TrajectoryServerNode(Node):
                     'second publisher?)', throttle_duration_sec=5.0)
             elif not self.first_state.is_set() and self._engine.has_state():
                 self.first_state.set()
+
+    def _map_names(self, names: list) -> None:
+        """Index a joint_states name list: the arm joints' items, the gripper finger's."""
+        self._js_map_names = names
+        self._js_map = [(i, self._index[x]) for i, x in enumerate(names) if x in self._index]
+        finger = self._actions.finger_joint
+        self._js_finger = names.index(finger) if finger in names else None
+
+    def _note_finger(self, msg: JointState, i: int) -> None:
+        """Hand the gripper action the finger's state (item ``i`` of joint_states)."""
+        pos, vel, effort = msg.position, msg.velocity, msg.effort
+        self._actions.note_finger(pos[i] if i < len(pos) else 0.0,
+                                  vel[i] if i < len(vel) else 0.0,
+                                  effort[i] if i < len(effort) else 0.0)
 
     def start_goal(self, request, tag) -> None:
         """Start a goal (under the lock); raise InvalidInputError when it is invalid."""
