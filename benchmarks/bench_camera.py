@@ -5,7 +5,9 @@ Camera cost side by side, in one run: rendering, the cloud, the filter, the phys
    step, colour, ...) so a busy machine slows every stage alike; the median round of each:
    the default camera (a D415 at 640 x 480) over the pick_place scene with the arm at sleep,
    MuJoCo's offscreen renderer (``MUJOCO_GL=egl``: software OpenGL on a machine without a GPU);
-   colour + depth per frame, the same at 320 x 240 (the peer: how the cost scales), the depth
+   colour + depth per frame as ``mujoco.Renderer`` draws them (one pass each) and in the
+   product's single pass (``CameraRenderer``: both read from one frame; the pair is its peer),
+   the two-pass pair at 320 x 240 (the peer: how the cost scales), the depth
    noise + back-projection of the cloud, Interbotix's filter (defaults) per call on the whole
    cloud as pc_filter gets it and on the workspace in front of the arm only (the peer), and
    the 1 kHz physics step of the same scene (ArmSimulator: PID + servo + MuJoCo), so a frame
@@ -37,7 +39,7 @@ from px100_control.models.registry import load_robot  # noqa: E402
 from px100_control.perception.camera import (back_project, CameraSpec, noisy_depth,  # noqa: E402
                                              transform_points)
 from px100_control.perception.cloud_filter import FilterParams, run_pipeline  # noqa: E402
-from px100_control.sim.camera_render import posed_model  # noqa: E402
+from px100_control.sim.camera_render import CameraRenderer, posed_model  # noqa: E402
 from px100_control.sim.scene import load_scene  # noqa: E402
 from px100_control.sim.simulator import ArmSimulator  # noqa: E402
 
@@ -70,15 +72,19 @@ def rounds(n: int) -> dict:
     model_s, data_s = posed_model(robot, scene, small)
     renderer = mujoco.Renderer(model, camera.height, camera.width)
     renderer_s = mujoco.Renderer(model_s, small.height, small.width)
+    one_pass = CameraRenderer(model, camera)
     sim = ArmSimulator(robot, scene=scene)
     rng = np.random.default_rng(0)
     T = camera.optical_pose()
-    times = {k: [] for k in ('colour', 'depth', 'colour_depth_320x240', 'cloud', 'filter',
-                             'filter_workspace', 'physics_step')}
+    times = {k: [] for k in ('colour', 'depth', 'one_pass', 'colour_depth_320x240', 'cloud',
+                             'filter', 'filter_workspace', 'physics_step')}
     clusters = {}
     for k in range(n + 1):                          # round 0 warms up (context, caches)
         color, depth, ms_c, ms_d = _frame_ms(renderer, data, camera.name)
         _, _, ms_cs, ms_ds = _frame_ms(renderer_s, data_s, small.name)
+        t0 = time.perf_counter()
+        one_pass.render(data)
+        ms_one = 1e3 * (time.perf_counter() - t0)
         t0 = time.perf_counter()
         points, colors = back_project(camera.intrinsics(), noisy_depth(camera, depth, rng), color)
         t1 = time.perf_counter()
@@ -95,7 +101,7 @@ def rounds(n: int) -> dict:
         t5 = time.perf_counter()
         clusters = {'filter': len(full.clusters), 'filter_workspace': len(work.clusters)}
         if k:
-            for key, ms in (('colour', ms_c), ('depth', ms_d),
+            for key, ms in (('colour', ms_c), ('depth', ms_d), ('one_pass', ms_one),
                             ('colour_depth_320x240', ms_cs + ms_ds),
                             ('cloud', 1e3 * (t1 - t0)), ('filter', 1e3 * (t2 - t1)),
                             ('filter_workspace', 1e3 * (t4 - t3)),
@@ -104,6 +110,7 @@ def rounds(n: int) -> dict:
         bound.stage(f'round {k} of {n}')
     renderer.close()
     renderer_s.close()
+    one_pass.close()
     median = {k: round(statistics.median(v), 3) for k, v in times.items()}
     return {'rounds': n, 'median_ms': median, 'clusters': clusters,
             'load_average': os.getloadavg()}
@@ -222,7 +229,10 @@ def report(out: dict) -> None:
         print(f'  {key:22s} {value:8.3f}')
     print(f'  colour + depth {pair:.1f} ms per frame = {pair / m["physics_step"]:.0f} physics '
           f'steps (1 ms simulated each); {pair / m["colour_depth_320x240"]:.2f}x the 320x240 '
-          f'frame; at 5 Hz with the cloud {0.5 * (pair + m["cloud"]):.0f} % of a core')
+          f'frame')
+    print(f'  one pass (CameraRenderer) {m["one_pass"]:.1f} ms: the two-pass pair / one pass '
+          f'{pair / m["one_pass"]:.2f}x; at 5 Hz with the cloud '
+          f'{0.5 * (m["one_pass"] + m["cloud"]):.0f} % of a core')
     print(f'  filter {m["filter"]:.1f} ms per call on the whole cloud '
           f'({out["clusters"]["filter"]} clusters) = {m["filter"] / m["filter_workspace"]:.1f}x '
           f'the workspace crop ({out["clusters"]["filter_workspace"]} clusters); '
@@ -244,6 +254,8 @@ def markdown(out: dict) -> str:
             f'| colour + depth per frame | {pair:.1f} ms ({m["colour"]:.1f} + {m["depth"]:.1f}); '
             f'{pair / m["colour_depth_320x240"]:.2f}x a 320 x 240 frame; '
             f'{pair / m["physics_step"]:.0f} physics steps |',
+            f'| one pass (the camera node\'s) / the two-pass pair | {m["one_pass"]:.1f} ms; '
+            f'{pair / m["one_pass"]:.2f}x faster |',
             f'| cloud (noise + back-projection) | {m["cloud"]:.1f} ms |',
             f'| filter per call, whole cloud / workspace crop | {m["filter"]:.0f} / '
             f'{m["filter_workspace"]:.0f} ms ({m["filter"] / m["filter_workspace"]:.1f}x) |']

@@ -7,8 +7,8 @@ rendering never slows sim_driver's physics: the robot's geometry from the URDF o
 from ``world/markers`` and the ArmTag on the gripper. Each frame (a timer at ``rate`` Hz) it
 poses the model from the last ``joint_states`` and markers and renders it offscreen
 (``MUJOCO_GL=egl``: the CPU software renderer on a machine without a GPU), but only while one
-of its image, camera_info or cloud topics has a subscriber (the cloud is computed only while
-its own topic has one): an unwatched camera costs no CPU.
+of its image, camera_info or cloud topics has a subscriber (an image or the cloud is built and
+published only while its own topic has one): an unwatched camera costs no CPU.
 
 - sub ``robot_description`` (std_msgs/String, transient local: the model is rebuilt when it
   changes; one MuJoCo cannot build is logged, no frames until a usable one),
@@ -196,8 +196,12 @@ class CameraNode(Node):
         self.frame_seconds.append(time.perf_counter() - start)
         del self.frame_seconds[:-100]
 
-    def _frame(self, listeners=frozenset(('points',))) -> None:
-        """Render the last state: images, camera_infos, and the cloud if it has a listener."""
+    def _frame(self, listeners=frozenset(('color', 'depth', 'points'))) -> None:
+        """
+        Render the last state: the camera_infos, and each image and the cloud with a listener.
+
+        An image without a subscriber is not built (the depth image is a 1.2 MB message).
+        """
         tag = armtag.TAG_ID if self.get_parameter('armtag').value else None
         if needs_rebuild(self._scene, self.camera, self._bodies, tag, self._urdf):
             prefix = f'{robot_name(self)}/' if robot_name(self) else ''
@@ -210,9 +214,11 @@ class CameraNode(Node):
         depth = noisy_depth(self.camera, depth, self._rng)
         stamp, frame = self._stamp, self._frames['camera_color_optical_frame']
         info = camera_info_msg(self.camera, stamp, frame)
-        self._pub['color'].publish(image_msg(color, 'rgb8', stamp, frame))
+        if 'color' in listeners:
+            self._pub['color'].publish(image_msg(color, 'rgb8', stamp, frame))
         self._pub['color_info'].publish(info)
-        self._pub['depth'].publish(image_msg(depth, '32FC1', stamp, frame))
+        if 'depth' in listeners:
+            self._pub['depth'].publish(image_msg(depth, '32FC1', stamp, frame))
         self._pub['depth_info'].publish(info)
         if 'points' in listeners:
             points, colors = back_project(self.camera.intrinsics(), depth, color)

@@ -311,3 +311,39 @@ def test_unwatched_camera_renders_nothing(env):
     finally:
         probe.subscribe_camera()
     probe.frame(after=last + 1e-6, timeout=30.0)
+
+
+def test_each_image_is_built_for_its_own_subscriber(env):
+    """
+    Only the depth image watched: depth frames come; colour, subscribed later, comes at once.
+
+    The camera builds each image (and the cloud) only for a subscriber of its own topic (the
+    depth image is a 1.2 MB message); a subscriber that joins gets the next frame.
+    """
+    probe, _, _ = env
+    probe.unsubscribe_camera()
+    got = {'depth': [], 'color': []}
+
+    def keep(key):
+        return lambda msg: got[key].append(msg)
+    try:
+        depth_sub = probe.create_subscription(Image, '/px100/camera/depth/image_rect_raw',
+                                              keep('depth'), IMAGE_QOS)
+        assert wait_for(lambda: len(got['depth']) >= 3, 30.0), 'no depth image'
+        last = got['depth'][-1]
+        assert (last.encoding, last.height, last.width) == ('32FC1', CAMERA.height,
+                                                            CAMERA.width)
+        depth = np.frombuffer(bytes(last.data), dtype=np.float32)
+        assert (depth > 0).mean() > 0.9, 'the depth image sees almost nothing'
+        color_sub = probe.create_subscription(Image, '/px100/camera/color/image_raw',
+                                              keep('color'), IMAGE_QOS)
+        assert wait_for(lambda: len(got['color']) >= 2, 30.0), 'no colour image after joining'
+        stamps = {(m.header.stamp.sec, m.header.stamp.nanosec) for m in got['depth']}
+        assert any((m.header.stamp.sec, m.header.stamp.nanosec) in stamps
+                   for m in got['color']), 'colour and depth never of the same frame'
+    finally:
+        for sub in (locals().get('depth_sub'), locals().get('color_sub')):
+            if sub is not None:
+                probe.destroy_subscription(sub)
+        probe.subscribe_camera()
+    probe.frame(timeout=30.0)

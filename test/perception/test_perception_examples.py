@@ -98,7 +98,7 @@ def _run(script, tmp_path):
     import rclpy
     from px100_control.tools.processes import NodeProcess
     from rclpy.executors import SingleThreadedExecutor
-    from sensor_msgs.msg import Image
+    from sensor_msgs.msg import CameraInfo
     scene = CASES[script][0]
     procs = [NodeProcess('bringup', ['--ros-args', '-p', f'scene:={scene}', '-p',
                                      'publish_pose:=false'] + TOLERANT),
@@ -112,9 +112,10 @@ def _run(script, tmp_path):
     thread.start()
     try:
         markers, frames = Markers(node), []
-        node.create_subscription(Image, '/px100/camera/color/image_raw',
+        # a frame's colour camera_info, not its 0.9 MB image (the camera builds an image only
+        # for a subscriber); a few frames: the camera's first ones may precede the bodies
+        node.create_subscription(CameraInfo, '/px100/camera/color/camera_info',
                                  lambda m: frames.append(1), 1)
-        # a few frames: the camera's first ones may precede the scene's bodies
         assert wait_for(lambda: len(frames) >= 10 and markers.now(), STARTUP_TIMEOUT), \
             'no camera frame or world/markers\n' + procs[0].output()[-3000:]
         before = markers.now()
