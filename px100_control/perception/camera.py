@@ -9,6 +9,7 @@ along the optical axis, x right, y down). Depth is the z distance along the opti
 0 where there is no return, as a RealSense driver publishes it.
 """
 from dataclasses import dataclass
+import functools
 import math
 from typing import Optional, Tuple
 
@@ -173,24 +174,67 @@ def noisy_depth(spec: CameraSpec, depth: np.ndarray, rng: np.random.Generator) -
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _rays(intr: Intrinsics) -> Tuple[np.ndarray, np.ndarray]:
+    """Return (x / z, y / z) of every pixel's ray, row-major flat float64 (read-only)."""
+    u = (np.arange(intr.width) - intr.cx) / intr.fx
+    v = (np.arange(intr.height) - intr.cy) / intr.fy
+    rx = np.tile(u, intr.height)
+    ry = np.repeat(v, intr.width)
+    rx.flags.writeable = ry.flags.writeable = False
+    return rx, ry
+
+
+def _returns(intr: Intrinsics, depth: np.ndarray):
+    """Return (flat indices of the pixels with a return, their depth [m]) of a depth image."""
+    h, w = np.shape(depth)
+    if (w, h) != (intr.width, intr.height):
+        raise InvalidInputError(f'depth image is {w} x {h}, the intrinsics are for '
+                                f'{intr.width} x {intr.height}')
+    flat = np.asarray(depth).reshape(-1)
+    index = np.flatnonzero(flat > 0.0)
+    return index, flat[index]
+
+
 def back_project(intr: Intrinsics, depth: np.ndarray,
                  color: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return the cloud of a depth image: points (N, 3) [m] in the optical frame, colours (N, 3).
 
-    Pixels with depth 0 (no return) are skipped. ``color`` (H, W, 3) uint8 aligned with the
-    depth image gives each point its colour (zeros without it).
+    Pixels with depth 0 (no return) are skipped, the others in row-major order. ``color``
+    (H, W, 3) uint8 aligned with the depth image gives each point its colour (zeros without it).
     """
-    h, w = depth.shape
-    if (w, h) != (intr.width, intr.height):
-        raise InvalidInputError(f'depth image is {w} x {h}, the intrinsics are for '
-                                f'{intr.width} x {intr.height}')
-    v, u = np.nonzero(depth > 0.0)
-    z = depth[v, u].astype(np.float64)
-    points = np.column_stack([(u - intr.cx) * z / intr.fx, (v - intr.cy) * z / intr.fy, z])
-    colors = (np.asarray(color)[v, u] if color is not None
-              else np.zeros((len(z), 3), dtype=np.uint8))
+    index, z = _returns(intr, depth)
+    rx, ry = _rays(intr)
+    points = np.empty((len(index), 3))
+    z = z.astype(np.float64)
+    np.multiply(rx[index], z, out=points[:, 0])
+    np.multiply(ry[index], z, out=points[:, 1])
+    points[:, 2] = z
+    colors = (np.asarray(color).reshape(-1, 3)[index] if color is not None
+              else np.zeros((len(index), 3), dtype=np.uint8))
     return points, colors.astype(np.uint8)
+
+
+def xyzrgb_cloud(intr: Intrinsics, depth: np.ndarray, color: np.ndarray) -> np.ndarray:
+    """
+    Return :func:`back_project`'s cloud packed as PointCloud2's XYZRGB points: (N, 4) float32.
+
+    Columns x, y, z [m] in the optical frame and rgb: a float32 whose bits are 0x00RRGGBB
+    (PCL's packing). ``color`` is (H, W, 3) uint8, aligned with ``depth``.
+    """
+    index, z = _returns(intr, depth)
+    rx, ry = _rays(intr)
+    packed = np.empty((len(index), 4), dtype=np.float32)
+    packed[:, 0] = rx[index] * z
+    packed[:, 1] = ry[index] * z
+    packed[:, 2] = z
+    c = np.asarray(color, dtype=np.uint8).reshape(-1, 3)[index].astype(np.uint32)
+    rgb = packed[:, 3].view(np.uint32)
+    np.left_shift(c[:, 0], 16, out=rgb)
+    rgb |= c[:, 1] << 8
+    rgb |= c[:, 2]
+    return packed
 
 
 def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:

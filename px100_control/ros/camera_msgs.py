@@ -49,6 +49,12 @@ def cloud_msg(points: np.ndarray, colors: np.ndarray, stamp, frame_id: str) -> P
     packed[:, :3] = points
     c = np.asarray(colors, dtype=np.uint32)
     packed[:, 3] = ((c[:, 0] << 16) | (c[:, 1] << 8) | c[:, 2]).view(np.float32)
+    return packed_cloud_msg(packed, stamp, frame_id)
+
+
+def packed_cloud_msg(packed: np.ndarray, stamp, frame_id: str) -> PointCloud2:
+    """Return the PointCloud2 of (N, 4) float32 XYZRGB points (:func:`xyzrgb_cloud`'s)."""
+    n = len(packed)
     msg = PointCloud2(height=1, width=n, fields=POINT_FIELDS, is_bigendian=False,
                       point_step=16, row_step=16 * n, is_dense=True)
     msg.header.stamp = stamp

@@ -337,10 +337,14 @@ def test_each_image_is_built_for_its_own_subscriber(env):
         assert (depth > 0).mean() > 0.9, 'the depth image sees almost nothing'
         color_sub = probe.create_subscription(Image, '/px100/camera/color/image_raw',
                                               keep('color'), IMAGE_QOS)
-        assert wait_for(lambda: len(got['color']) >= 2, 30.0), 'no colour image after joining'
-        stamps = {(m.header.stamp.sec, m.header.stamp.nanosec) for m in got['depth']}
-        assert any((m.header.stamp.sec, m.header.stamp.nanosec) in stamps
-                   for m in got['color']), 'colour and depth never of the same frame'
+        assert wait_for(lambda: got['color'], 30.0), 'no colour image after joining'
+
+        def stamps(key):
+            return {(m.header.stamp.sec, m.header.stamp.nanosec) for m in list(got[key])}
+        # a loaded probe may miss a frame of one topic (depth 1): wait for one frame of both
+        assert wait_for(lambda: stamps('color') & stamps('depth'), 30.0), \
+            f"colour and depth never of the same frame: {sorted(stamps('color'))[-3:]} / " \
+            f"{sorted(stamps('depth'))[-3:]}"
     finally:
         for sub in (locals().get('depth_sub'), locals().get('color_sub')):
             if sub is not None:
