@@ -285,8 +285,22 @@ class Demo:
         ok = bool(ok[1] if isinstance(ok, tuple) else ok)
         if not ok:
             print(f'  {label:<15} FAILED: {self.bot.arm.last_error[:160]}')
+            print(f'  {"":<15} then: {self.state_text()}')
             self.failures.append(label)
         return ok
+
+    def state_text(self) -> str:
+        """Return the measured joints [rad] (efforts [N m]), finger gap [mm]: why a move failed."""
+        js = self.bot.core.joint_states
+        if js is None:
+            return 'no joint_states'
+        efforts = dict(zip(js.name, js.effort)) if len(js.effort) == len(js.name) else {}
+        joints = ', '.join(f'{n} {q:.3f}' + (f' ({efforts[n]:.2f})' if n in efforts else '')
+                           for n, q in zip(js.name, js.position))
+        width = self.bot.gripper.get_finger_width()
+        gap = f'{1000 * width:.1f} mm' if width is not None else 'unknown'
+        return (f'joints (effort) {joints}; finger gap {gap}; held: '
+                f'{self.bot.world.held_object() or "nothing"}')
 
     def pitch_for(self, xyz, prefer: float = math.nan) -> float:
         """

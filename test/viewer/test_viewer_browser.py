@@ -72,7 +72,7 @@ def page(browser, graph):
 
 def _go_home(watcher):
     key = watcher.send_goal(*HOME, moving_time=1.5)
-    assert watcher.wait_goal(key) == 'SUCCEEDED'
+    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
 
 
 def test_page_connects_and_shows_the_arm_and_world(page, graph):
@@ -108,7 +108,7 @@ def test_arm_on_the_page_moves_when_a_goal_executes(page, graph):
     before = canvas_pixels(page)
     key = watcher.send_goal(('waist', 'shoulder', 'elbow', 'wrist_angle'),
                             (0.6, -0.3, 0.3, 0.2), moving_time=1.5)
-    assert watcher.wait_goal(key) == 'SUCCEEDED'
+    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
     page.wait_for_function("() => document.body.innerText.includes('SUCCEEDED')",
                            timeout=45000)
     page.wait_for_timeout(800)
@@ -179,7 +179,7 @@ def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
     watcher, _ = graph
     # from the sleep pose, where the camera of the page sees the gizmo clear of the panel
     key = watcher.send_goal(HOME[0], (0.0, -1.88, 1.5, 0.8), moving_time=2.0)
-    assert watcher.wait_goal(key) == 'SUCCEEDED'
+    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
     page.wait_for_timeout(2500)          # the gizmo follows the end effector again
     assert wait_for(lambda: watcher.ee is not None, 5.0)
     z0 = watcher.ee[2]
@@ -211,7 +211,7 @@ def test_closed_tab_and_dead_viewer_never_stop_the_graph(browser, graph):
     procs[2].proc.wait(10)
     assert procs[1].alive()
     key = watcher.send_goal(*HOME, moving_time=3.0)
-    assert watcher.wait_goal(key) == 'SUCCEEDED'
+    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
     t0 = time.monotonic()
     watcher.joints = {}
     assert wait_for(lambda: watcher.position('waist') is not None, 5.0)
@@ -220,18 +220,21 @@ def test_closed_tab_and_dead_viewer_never_stop_the_graph(browser, graph):
 
 def test_buttons_act_through_the_ros_interfaces(page, graph):
     """Sleep sends a goal; Close/Open gripper move the fingers; torque and scene reset answer."""
-    watcher, _ = graph
+    watcher, procs = graph
     page.get_by_role('button', name='Sleep').click()
     assert wait_for(lambda: abs(watcher.position('shoulder') + 1.88) < 0.05, 20.0), \
-        f'shoulder {watcher.position("shoulder"):.3f} did not reach the sleep pose'
+        (f'shoulder {watcher.position("shoulder"):.3f} did not reach the sleep pose; '
+         f'{watcher.evidence()}\n-- bringup:\n{procs[0].output()[-3000:]}')
     finger0 = watcher.position('left_finger')
     page.get_by_role('button', name='Close gripper').click()
     assert wait_for(lambda: watcher.position('left_finger') < finger0 - 0.003, 15.0), \
-        f"left_finger {watcher.position('left_finger'):.4f} m, was {finger0:.4f} m"
+        (f"left_finger {watcher.position('left_finger'):.4f} m, was {finger0:.4f} m; "
+         + watcher.evidence())
     closed = watcher.position('left_finger')
     page.get_by_role('button', name='Open gripper').click()
     assert wait_for(lambda: watcher.position('left_finger') > closed + 0.005, 15.0), \
-        f"left_finger {watcher.position('left_finger'):.4f} m, closed {closed:.4f} m"
+        (f"left_finger {watcher.position('left_finger'):.4f} m, closed {closed:.4f} m; "
+         + watcher.evidence())
     for name, text in (('Torque off', 'viewer: torque off: done'),
                        ('Torque on', 'viewer: torque on: done'),
                        ('Reset scene', 'scene reset: done')):

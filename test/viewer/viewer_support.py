@@ -5,6 +5,7 @@ import time
 import urllib.request
 
 from action_msgs.msg import GoalStatusArray
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 import numpy as np
 from px100_control.ros.action_events import EVENT_QOS
@@ -69,6 +70,8 @@ class Watcher(Node):
         self.ee = None
         self.ik_requests = []
         self.status = {}
+        self.js_at = None            # time.monotonic() of the last joint_states
+        self.diagnostics = []        # the last /diagnostics lines: 'name: level message'
         self.cli_goal = self.create_client(SEND_GOAL,
                                            f'{ns}/{ARM_ACTION}/_action/send_goal')
         self.pub_markers = self.create_publisher(MarkerArray, f'{ns}/world/markers', LATCHED)
@@ -79,10 +82,27 @@ class Watcher(Node):
                                  self._on_ik, EVENT_QOS)
         self.create_subscription(GoalStatusArray, f'{ns}/{ARM_ACTION}/_action/status',
                                  self._on_status, LATCHED)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, 20)
 
     def _on_js(self, msg):
         with self.lock:
             self.joints = dict(zip(msg.name, msg.position))
+            self.js_at = time.monotonic()
+
+    def _on_diagnostics(self, msg):
+        with self.lock:
+            self.diagnostics += [f'{s.name}: {s.level} {s.message}' for s in msg.status]
+            del self.diagnostics[:-8]
+
+    def evidence(self) -> str:
+        """Return what the watcher saw: joints, joint_states age, goal statuses, diagnostics."""
+        with self.lock:
+            age = 'never' if self.js_at is None else f'{time.monotonic() - self.js_at:.2f} s ago'
+            joints = {k: round(v, 3) for k, v in self.joints.items()}
+            goals = [f'{k.hex()[:8]} {v}' for k, v in list(self.status.items())[-5:]]
+            diags = list(self.diagnostics)
+        return (f'joints {joints} (last joint_states {age}); last goals {goals}; '
+                f'diagnostics {diags}')
 
     def _on_ee(self, msg):
         p = msg.pose.position
