@@ -3,13 +3,13 @@ The perception examples (examples/perception/, one per Interbotix perception dem
 
 Each runs as a user runs it: ``bringup`` with the example's scene and the camera without its
 pose (``publish_pose:=false``: the ArmTag must place it), ``pc_filter`` with the examples'
-crop box, then the script in its own process. Afterwards every object must rest where the
-script meant to put it (within ``TOLERANCE`` of one of the spots of its kind, one object per
-spot; the tray for pick_place), read from the simulator's ``world/markers``. Scripts differ
-from Interbotix's API only in their import lines: checked on the source. Each end-to-end run
-takes about a minute (marked slow: not in the quick tier). Measured on the quiet 2-core machine:
-15 of 15 runs passed (each example 3 times); under a load of 7-14 moves aborted now and then
-(joint_states late, 'driver not following').
+crop box, then the script in its own process; only faster, on the simulation's clock (SPEED
+times real time, ``use_sim_time``; the perception demo test runs on wall time). Afterwards every
+object must rest where the script meant to put it (within ``TOLERANCE`` of one of the spots of
+its kind, one object per spot; the tray for pick_place), read from the simulator's
+``world/markers``. Scripts differ from Interbotix's API only in their import lines: checked on
+the source. Each end-to-end run takes 30-50 s at SPEED 2, 55-85 s at real time (marked slow:
+not in the quick tier).
 """
 import ast
 import os
@@ -51,6 +51,12 @@ CASES = {
 #: 4-9 on 2 cores: pick_place's move aborted on joint_states 1.02 s old)
 TOLERANT = ['-p', 'path_tolerance:=0.5', '-p', 'goal_time_tolerance:=2.0',
             '-p', 'state_timeout:=3.0']
+#: the simulation's speed [simulated s per wall s]: the driver owns the clock (/clock) and the
+#: nodes follow it (use_sim_time), so a starved driver slows everyone's time instead of
+#: falling behind a wall clock; the script's client is told (PX100_REAL_TIME_FACTOR)
+SPEED = float(os.environ.get('PX100_TEST_EXAMPLES_RTF', '2.0'))
+SIM_TIME = ['-p', 'use_sim_time:=true', '-p', 'publish_clock:=true',
+            '-p', f'real_time_factor:={SPEED}']
 
 
 def _imports(tree):
@@ -101,8 +107,9 @@ def _run(script, tmp_path):
     from sensor_msgs.msg import CameraInfo
     scene = CASES[script][0]
     procs = [NodeProcess('bringup', ['--ros-args', '-p', f'scene:={scene}', '-p',
-                                     'publish_pose:=false'] + TOLERANT),
-             NodeProcess('pc_filter', ['--ros-args', '--params-file', FILTER])]
+                                     'publish_pose:=false'] + TOLERANT + SIM_TIME),
+             NodeProcess('pc_filter', ['--ros-args', '--params-file', FILTER, '-p',
+                                       'use_sim_time:=true'])]
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node('examples_probe', context=context)
@@ -121,7 +128,8 @@ def _run(script, tmp_path):
         before = markers.now()
         proc = subprocess.run([sys.executable, os.path.join(EXAMPLES, f'{script}.py')],
                               capture_output=True, text=True, timeout=600,
-                              env=dict(os.environ, PX100_CONNECT_TIMEOUT='60'))
+                              env=dict(os.environ, PX100_CONNECT_TIMEOUT='60',
+                                       PX100_REAL_TIME_FACTOR=str(SPEED)))
         after = markers.now()
         return proc, before, after
     finally:
