@@ -2,8 +2,9 @@
 Interbotix-style scripts (test/client/interbotix_style/, one per demo kind) run unchanged.
 
 Each script is written as for the real API; only its import lines name px100_control. It runs as
-a user would run it (its own process, ``PX100_BRINGUP=1``: the nodes in the script's process) and
-must exit 0, print no traceback and no ERROR log, and report the poses it was asked for.
+a user would run it (its own process, ``PX100_BRINGUP=1``: the nodes in the script's process; at
+SPEED times real time, except REAL_TIME) and must exit 0, print no traceback and no ERROR
+log, and report the poses it was asked for.
 """
 import os
 import re
@@ -37,6 +38,13 @@ EXPECTED = {
 }
 
 
+#: simulated s per wall s of the in-process bringup (its driver owns the clock): the scripts'
+#: results are poses and outputs, not their pacing
+SPEED = 3.0
+#: scripts run at real time: dual_arm's two in-process drivers would both publish /clock
+REAL_TIME = ('dual_arm.py',)
+
+
 def test_only_import_lines_name_px100_control():
     """Every px100_control mention in the scripts is an import line (the only difference)."""
     for name in sorted(os.listdir(SCRIPTS)):
@@ -61,6 +69,7 @@ def test_script_runs_like_on_the_real_api(name):
     env['PYTHONPATH'] = os.pathsep.join([ROOT] + [p for p in env.get('PYTHONPATH', '').split(
         os.pathsep) if p])
     env['PX100_BRINGUP'] = '1'
+    env['PX100_REAL_TIME_FACTOR'] = str(1.0 if name in REAL_TIME else SPEED)
     env['PYTHONUNBUFFERED'] = '1'
     proc = subprocess.run([sys.executable, path], env=env, capture_output=True, text=True,
                           timeout=60 + 120 * SLOW)
