@@ -104,7 +104,6 @@ class CameraNode(Node):
         self._scene = None
         self._joints, self._stamp = {}, None
         # the newest joint_states and world/markers, kept serialized and read once per frame
-        # (100 and 30 messages a second: building each cost the idle camera about 6 % of a core)
         self._raw = {JointState: None, MarkerArray: None}
         self._bodies, self._poses = (), {}
         self._urdf = None

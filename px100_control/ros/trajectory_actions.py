@@ -234,12 +234,7 @@ class TrajectoryActions:
         return self._finger_joint if self.gripper is not None else None
 
     def note_finger(self, position: float, velocity: float, effort: float) -> None:
-        """
-        Take the finger's measured state [m, m/s, effort units] from the server's joint_states.
-
-        The server's subscription feeds it: a second subscription here woke this thread's
-        executor 100 times a second for nothing else.
-        """
+        """Take the finger's measured state [m, m/s, effort units] from the server's joint_states."""
         self._finger = (position, velocity, effort)
 
     def _gripper_settings(self) -> GripperSettings:

@@ -49,9 +49,7 @@ class CameraRenderer:
     """
     Offscreen colour + depth renderer of one camera of a compiled model.
 
-    One pass draws the scene; colour and depth are read from the same frame (MuJoCo's Renderer
-    draws it twice, once per mode: 1.3-1.5x the time here, and its depth pass drew the
-    silhouettes from other samples than its colour pass did).
+    One pass draws the scene; colour and depth are read from the same frame.
     """
 
     def __init__(self, model, camera: CameraSpec):
