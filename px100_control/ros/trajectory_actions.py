@@ -234,7 +234,7 @@ class TrajectoryActions:
         return self._finger_joint if self.gripper is not None else None
 
     def note_finger(self, position: float, velocity: float, effort: float) -> None:
-        """Take the finger's measured state [m, m/s, effort units] from the server's joint_states."""
+        """Take the finger's measured state [m, m/s, effort units] from joint_states."""
         self._finger = (position, velocity, effort)
 
     def _gripper_settings(self) -> GripperSettings:
