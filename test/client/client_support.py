@@ -8,19 +8,25 @@ import numpy as np
 #: moves long enough for the simulated servos to track them (fast tests, realistic arm)
 MOVING_TIME = 1.0
 ACCEL_TIME = 0.3
-#: wall seconds per simulated second (PX100_REAL_TIME_FACTOR < 1 slows the simulation down for a
-#: loaded machine; every timing assertion scales with it)
+#: wall seconds per simulated second of the scripts' simulations (PX100_REAL_TIME_FACTOR < 1 slows
+#: the simulation down for a loaded machine; every timing assertion scales with it)
 SLOW = 1.0 / float(os.environ.get('PX100_REAL_TIME_FACTOR', '1') or 1)
+#: simulated s per wall s of the shared in-process robot (conftest's ``bot``): its driver owns the
+#: clock (/clock) and the nodes follow it, so the behaviour tests run BOT_SPEED times faster and a
+#: loaded machine slows simulated time instead of making a node miss a wall clock
+#: (PX100_REAL_TIME_FACTOR sets it; the wall-time behaviour of real_time_factor 1 is tested in
+#: test_client_lifecycle.py and by the scripts run at real time)
+BOT_SPEED = float(os.environ.get('PX100_REAL_TIME_FACTOR') or 3.0)
 
 
 def wall(t: float) -> float:
-    """Return the wall time [s] that t simulated seconds take."""
-    return t * SLOW
+    """Return the least wall time [s] that t simulated seconds of ``bot`` take."""
+    return t / BOT_SPEED
 
 
-def pause(t: float) -> None:
-    """Sleep t simulated seconds."""
-    time.sleep(wall(t))
+def pause(bot, t: float) -> None:
+    """Sleep t simulated seconds of ``bot``'s driver (its joint_states stamps)."""
+    bot.core.sleep(t)
 
 
 def make_bot(**kwargs):
@@ -34,8 +40,13 @@ def make_bot(**kwargs):
 
 
 def wait_until(predicate, timeout: float = 3.0, period: float = 0.01) -> bool:
-    """Poll predicate until true or timeout simulated seconds pass; return its last value."""
-    end = time.monotonic() + wall(timeout)
+    """
+    Poll predicate until true or until a deadline; return its last value.
+
+    The deadline is ``timeout`` wall seconds (longer in a slowed simulation, SLOW): never shorter
+    than ``timeout`` simulated seconds at any speed up to real time's multiples.
+    """
+    end = time.monotonic() + timeout * max(1.0, SLOW, 1.0 / BOT_SPEED)
     while time.monotonic() < end:
         if predicate():
             return True

@@ -103,7 +103,7 @@ def test_newer_goal_preempts(bot):
     """A new command overrides a running non-blocking one (Interbotix semantics)."""
     bot.arm.go_to_home_pose()
     assert bot.arm.set_joint_positions([1.0, 0, 0, 0], moving_time=1.5, blocking=False)
-    pause(0.3)
+    pause(bot, 0.3)
     first = bot.arm._last_goal
     assert bot.arm.set_joint_positions([-0.3, 0, 0, 0], moving_time=0.8)
     assert bot.core.goal_status(first) == 'CANCELED'
@@ -165,7 +165,7 @@ def test_refused_commands_move_nothing(bot):
 def test_single_joint(bot):
     """set_single_joint_position moves one joint; the others hold."""
     bot.arm.go_to_home_pose()
-    assert bot.arm.set_single_joint_position('wrist_angle', 0.6) is True
+    assert bot.arm.set_single_joint_position('wrist_angle', 0.6) is True, bot.arm.last_error
     assert bot.arm.get_single_joint_command('wrist_angle') == 0.6
     np.testing.assert_allclose(bot.arm.get_joint_positions(), [0, 0, 0, 0.6], atol=0.005)
     np.testing.assert_allclose(bot.arm.get_ee_pose_command(),

@@ -58,6 +58,7 @@ def test_startup_shutdown_lifecycle(monkeypatch):
 
     # ROS 1 style: bringup from the environment, no robot_startup(), arm without gripper
     monkeypatch.setenv('PX100_BRINGUP', '1')
+    monkeypatch.setenv('PX100_REAL_TIME_FACTOR', '1')
     bot = InterbotixManipulatorXS('px100', gripper_name=None, moving_time=1.5, accel_time=0.3,
                                   connect_timeout=30.0)
     try:
@@ -65,9 +66,51 @@ def test_startup_shutdown_lifecycle(monkeypatch):
         assert bot.arm.set_joint_positions([0.2, -0.2, 0.2, 0.0]) is True
         np.testing.assert_allclose(bot.arm.get_joint_positions(), [0.2, -0.2, 0.2, 0.0],
                                    atol=0.005)
+        # the in-process driver at real_time_factor 1 (the shared client tests run faster)
+        _pause_waits_for_a_simulation_that_fell_behind(bot)
     finally:
         bot.shutdown()  # the galactic-era name
     assert get_interbotix_global_node() is None
+
+
+def _pause_waits_for_a_simulation_that_fell_behind(bot):
+    """
+    core.sleep (a grasp's delay) lasts its seconds of the driver's time, and of wall time.
+
+    The in-process driver's physics is held for 1 s (as a starved process: then it catches up
+    on its stamps): a 0.5 s pause begun meanwhile returns only once the stamps advanced 0.5 s,
+    after the stall. CI: a grasp(2.0) of pick_place ended with the fingers still closing while
+    the simulation lagged, and the arm carried the can away half gripped.
+    """
+    from px100_control.client.robot import get_bringup
+    from px100_control.ros.sim_driver_node import SimDriverNode
+    bringup = get_bringup(bot.core.robot_name)
+    assert bringup is not None, 'needs the in-process bringup'
+    driver = next(n for n in bringup.nodes if isinstance(n, SimDriverNode))
+
+    def stamp():
+        s = bot.core.joint_states.header.stamp
+        return s.sec + 1e-9 * s.nanosec
+
+    start = time.monotonic()
+    bot.core.sleep(0.5)                     # a driver on time: the pause is wall time
+    assert time.monotonic() - start >= 0.5
+    held, release = threading.Event(), threading.Event()
+
+    def stall():
+        with driver._lock:
+            held.set()
+            release.wait(1.0)
+    thread = threading.Thread(target=stall, daemon=True)
+    thread.start()
+    assert held.wait(5.0), 'the driver never let go of its lock'
+    before, start = stamp(), time.monotonic()
+    bot.core.sleep(0.5)
+    elapsed = time.monotonic() - start
+    release.set()
+    thread.join(5.0)
+    assert elapsed >= 0.9, f'the pause ended after {elapsed:.2f} s, inside the 1 s stall'
+    assert stamp() - before >= 0.5 - 0.011, 'the pause ended before the driver caught up'
 
 
 def _stop_later(proc, delay: float):

@@ -21,7 +21,7 @@ NAN, INF = float('nan'), float('inf')
 def _still(bot, seconds=0.3):
     """Return the largest joint change [rad] over ``seconds``."""
     q0 = np.array(bot.arm.get_joint_positions())
-    time.sleep(seconds)
+    bot.core.sleep(seconds)
     return float(np.max(np.abs(np.array(bot.arm.get_joint_positions()) - q0)))
 
 

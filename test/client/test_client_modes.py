@@ -26,7 +26,7 @@ def arm_at_sleep(bot):
     bot.core.robot_set_operating_modes('group', 'all', 'position')
     bot.core.robot_set_operating_modes('single', 'gripper', 'pwm')
     bot.core.robot_reset()
-    pause(0.3)
+    pause(bot, 0.3)
     bot.arm.capture_joint_positions()
 
 
@@ -38,7 +38,7 @@ def _driver_mode(bot, joint):
 def _still(bot, seconds: float = 0.8) -> float:
     """Return how far [rad] any arm joint moved during ``seconds``."""
     q0 = np.array(bot.arm.get_joint_positions())
-    pause(seconds)
+    pause(bot, seconds)
     return float(np.max(np.abs(np.array(bot.arm.get_joint_positions()) - q0)))
 
 
@@ -85,7 +85,7 @@ def test_velocity_mode_turns_at_the_commanded_speed(arm_at_sleep):
     assert bot.core.robot_set_operating_modes('single', 'waist', 'velocity')
     assert _driver_mode(bot, 'waist') == 'velocity'
     bot.core.robot_write_joint_command('waist', 0.5)
-    time.sleep(1.0)
+    pause(bot, 1.0)
     bot.core.robot_write_joint_command('waist', 0.0)
     assert wait_until(lambda: abs(bot.arm.get_joint_velocities()[0]) < 0.02, 1.0)
     turned = bot.arm.get_joint_positions()[0] - q0
@@ -101,17 +101,17 @@ def test_current_mode_is_torque_and_positions_are_refused(arm_at_sleep):
     assert bot.arm.set_single_joint_position('waist', 1.0) is False
     assert 'not in a position mode' in bot.arm.last_error
     bot.core.robot_write_joint_command('waist', 1.0)  # 1 mA: far below friction
-    pause(0.5)
+    pause(bot, 0.5)
     assert abs(bot.arm.get_joint_positions()[0] - q0[0]) < 0.02  # not 1 rad
     bot.core.robot_write_joint_command('waist', 150.0)  # 0.16 N*m > 0.1 N*m friction
-    pause(0.8)
+    pause(bot, 0.8)
     bot.core.robot_write_joint_command('waist', 0.0)
     assert bot.arm.get_joint_positions()[0] - q0[0] > 0.05
     # beyond the XL430's stall current: refused, nothing sent
     bot.core.robot_write_joint_command('waist', 5000.0)
     assert bot.core.robot_set_operating_modes('single', 'waist', 'position')
     q = bot.arm.get_joint_positions()
-    pause(0.5)
+    pause(bot, 0.5)
     assert abs(bot.arm.get_joint_positions()[0] - q[0]) < 0.02  # position mode holds
 
 
@@ -122,10 +122,10 @@ def test_pwm_mode_and_the_driver_refuses_positions(arm_at_sleep):
     assert bot.core.robot_set_operating_modes('single', 'waist', 'pwm')
     assert _driver_mode(bot, 'waist') == 'duty'
     bot.core.publish_setpoints(['waist'], positions=[1.0])  # as a confused script would
-    pause(0.5)
+    pause(bot, 0.5)
     assert abs(bot.arm.get_joint_positions()[0] - q0) < 0.02
     bot.core.robot_write_joint_command('waist', 150)
-    pause(0.8)
+    pause(bot, 0.8)
     bot.core.robot_write_joint_command('waist', 0)
     assert bot.arm.get_joint_positions()[0] - q0 > 0.2
 

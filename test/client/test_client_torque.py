@@ -4,7 +4,6 @@ Torque per joint, per group and for all, as the real SDK: only the addressed ser
 Real in-process nodes (the ``bot`` fixture); sim_driver's ``torque_enable.<joint>`` parameters
 carry it. A joint switched off falls under gravity while the others keep holding.
 """
-import time
 
 from client_support import pause
 import numpy as np
@@ -21,7 +20,7 @@ def _torque(bot):
 
 def _delta(bot, seconds):
     q0 = np.array(bot.arm.get_joint_positions())
-    pause(seconds)
+    pause(bot, seconds)
     return np.abs(np.array(bot.arm.get_joint_positions()) - q0)
 
 
@@ -36,7 +35,7 @@ def test_single_group_and_all(bot):
         assert np.max(_delta(bot, 1.0)) < 0.01  # the arm still holds
         finger = bot.gripper.get_finger_position()
         core.publish_setpoints(['gripper'], efforts=[0.4])  # drive ignored: torque off
-        pause(0.5)
+        pause(bot, 0.5)
         assert abs(bot.gripper.get_finger_position() - finger) < 1e-3
 
         assert core.robot_torque_enable('single', 'elbow', False) is True
@@ -48,11 +47,11 @@ def test_single_group_and_all(bot):
         assert _torque(bot)['shoulder'] is False and _torque(bot)['gripper'] is False
         assert core.robot_torque_enable('group', 'all', True) is True
         assert set(_torque(bot).values()) == {True}
-        time.sleep(0.3)
+        pause(bot, 0.3)
         assert np.max(_delta(bot, 0.5)) < 0.01  # all hold where they are
         arm.capture_joint_positions()
     finally:
         core.robot_torque_enable('group', 'all', True)
         core.robot_reset()
-        pause(0.3)
+        pause(bot, 0.3)
         arm.capture_joint_positions()

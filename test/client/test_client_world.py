@@ -63,11 +63,11 @@ def test_pick_shows_held_object_and_world_reset_puts_it_back(bot):
     assert bot.arm.set_ee_cartesian_trajectory(z=0.05, moving_time=1.0), bot.arm.last_error
     assert wait_until(lambda: bot.world.held_object() == 'green_cube', 2.0), \
         bot.world.held_object()
-    pause(0.2)
+    pause(bot, 0.2)
     lifted = bot.world.get_object_pose('green_cube')[:3, 3]
     assert lifted[2] > start[2] + 0.03, (start, lifted)
     assert bot.world.reset()
-    pause(0.2)
+    pause(bot, 0.2)
     back = bot.world.get_object_pose('green_cube')[:3, 3]
     assert np.linalg.norm(back - start) < 0.003, (start, back)
     bot.gripper.release(delay=0.5)
