@@ -44,6 +44,8 @@ from px100_control.errors import InvalidInputError
 from px100_control.parameters import bound_error, TRAJECTORY_SERVER
 
 SUCCEEDED, CANCELED, ABORTED = 'SUCCEEDED', 'CANCELED', 'ABORTED'
+#: pauses of a goal kept to place late measurements on its time (older ones are long past)
+MAX_PAUSES = 8
 #: the shortest hold_after [s] (the schema's bound): a goal pauses while measurements are
 #: older, so it must exceed the driver's publish period (20 Hz here; sim_driver publishes at
 #: 100 Hz)
@@ -105,6 +107,7 @@ class Goal:
     stepped: bool = False                 # linear_max_step: one period per setpoint sent
     ticks: int = 0
     hold_since: Optional[int] = None      # goal clock [ns] when it paused
+    pauses: list = field(default_factory=list)   # the last pauses: (from, to) [ns] goal clock
     last_q: Optional[np.ndarray] = None
     last_qd: Optional[np.ndarray] = None
     path_tol: Optional[np.ndarray] = None    # (n,) [rad], inf = not checked; None = settings'
@@ -397,6 +400,7 @@ class GoalExecutor:
         if goal.hold_since is not None:
             held = now_ns - goal.hold_since
             goal.t_start += held
+            goal.pauses = goal.pauses[-(MAX_PAUSES - 1):] + [(goal.hold_since, now_ns)]
             goal.hold_since = None
             out.notes.append(('info', f'goal {goal.label} resumed after a {held * 1e-9:.2f} s '
                                       'pause'))
@@ -408,10 +412,16 @@ class GoalExecutor:
 
         The measurement is compared with the setpoints of the ``path_window`` seconds before it
         was taken (its stamp: transport and scheduling delays are not errors); being anywhere
-        within the span of those setpoints (the driver lagging) is no error.
+        within the span of those setpoints (the driver lagging) is no error. The goal's clock
+        stood still while it paused: a measurement taken before a pause (a sample the driver
+        stamped then, read after the goal resumed) is placed before the pause on the goal's time.
         """
         w = self.settings.path_window
-        t_meas = t - max(0.0, (now_ns - self.meas_stamp_ns) * 1e-9)
+        stamp = self.meas_stamp_ns
+        paused_ns = sum(max(0, min(end, now_ns) - max(begin, stamp))
+                        for begin, end in goal.pauses)
+        lag_ns = max(0, now_ns - stamp) - paused_ns
+        t_meas = t - max(0.0, lag_ns * 1e-9)
         q_a = goal.traj.sample(t_meas - w)[0]
         q_b = goal.traj.sample(t_meas - 0.5 * w)[0]
         q_c = goal.traj.sample(t_meas)[0]

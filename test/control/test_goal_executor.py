@@ -199,6 +199,30 @@ def test_silent_driver_pauses_the_goal_which_resumes_without_a_jump():
     assert 2.0 - 0.75 + 0.3 <= elapsed + 0.0 <= 2.0 + 0.1   # the rest of the move, delayed
 
 
+def test_a_sample_stamped_before_a_pause_and_read_after_it_is_no_tracking_error():
+    """
+    The goal's clock stood still while paused: a late sample is placed before the pause.
+
+    A starved driver publishes the samples of the time it catches up, stamped then; one stamped
+    before a 0.45 s pause and read once the goal resumed showed the arm 0.45 s ahead of its
+    setpoints (at 1 rad/s: over path_tolerance 0.2 rad) when its stamp was taken as that far
+    back on the goal's time (test_namespaces: ABORTED under load, 0.2001 rad, "0.191 s before").
+    """
+    rig = Rig(hold_after=0.25, state_timeout=2.0)
+    rig.start(request([(1.5, [1.2])], names=['waist']))     # 1 rad/s after a 0.3 s ramp
+    rig.run(0.5)
+    late_stamp, late_q = rig.now, rig.q.copy()
+    rig.silent = True
+    assert rig.run(0.7) is None
+    assert [n for n in rig.notes if 'paused: no joint_states' in n[1]]
+    rig.ex.measure(enumerate(late_q.tolist()), rig.steady, late_stamp)   # read only now
+    assert rig.step() is None, rig.notes
+    assert [n for n in rig.notes if 'resumed after a 0.4' in n[1]], rig.notes
+    rig.silent = False
+    status, reason, _ = rig.run(3.0)
+    assert status == SUCCEEDED, reason
+
+
 def test_watchdog_aborts_after_two_stale_checks_on_the_steady_clock():
     """A stopped goal clock (sim time) does not hide a silent driver: steady time decides."""
     rig = Rig(state_timeout=0.5, hold_after=0.25)
