@@ -40,6 +40,33 @@ def wait_for(predicate, timeout: float, period: float = 0.01) -> bool:
     return bool(predicate())
 
 
+class ServerSide:
+    """
+    Whether the process that serves an action has matched a node's action client.
+
+    DDS matches endpoints on each side separately: the client's node can see the server (and
+    ``server_is_ready``) before the server's process has matched the client's reply readers.
+    A reply to a reader the server has not matched is not sent (Fast DDS's rmw waits the
+    writer's max_blocking_time, 100 ms, for it; rclpy then logs "Failed to send goal response"
+    and drops the goal, which neither ends nor runs): on a loaded machine the goal request
+    waits forever for its response. An answer of the server's process to a client created after
+    the action client proves that it has matched the action client too
+    (:class:`px100_control.ros.writer_match.WriterSideCheck`; a node's endpoints are announced in
+    order). Create it after the action client.
+    """
+
+    def __init__(self, node, action_name: str):
+        from px100_control.ros.writer_match import WriterSideCheck
+        self._node = node
+        self._status = node.resolve_topic_name(action_name + '/_action/status')
+        self._check = WriterSideCheck(node)
+
+    def matched(self) -> bool:
+        """Return True once every process serving the action has answered (never blocks)."""
+        infos = self._node.get_publishers_info_by_topic(self._status)
+        return bool(infos) and not self._check.unconfirmed(infos)
+
+
 def arm_goal(names, points) -> FollowJointTrajectory.Goal:
     """Return a goal of points = [(time_from_start [s], positions[, velocities])]."""
     goal = FJT.Goal()
@@ -92,6 +119,7 @@ class TrajectoryClient(Node):
         self.create_subscription(JointState, 'commands/joint_setpoints', self._on_sp, 100)
         self.cancel_client = self.create_client(CancelGoal,
                                                 ARM_ACTION + '/_action/cancel_goal')
+        self.server_side = ServerSide(self, ARM_ACTION)    # after self.arm and cancel_client
 
     def _on_status(self, msg):
         with self.lock:
@@ -117,8 +145,8 @@ class TrajectoryClient(Node):
                                    dict(zip(msg.name, msg.velocity))))
 
     def ready(self) -> bool:
-        """Return True once the action server is there."""
-        return self.arm.server_is_ready()
+        """Return True once the action server is there and its process has matched this client."""
+        return self.arm.server_is_ready() and self.server_side.matched()
 
     def _call(self, fn):
         """
@@ -134,9 +162,11 @@ class TrajectoryClient(Node):
 
     def send_goal(self, goal, timeout: float = 10.0) -> SentGoal:
         """Send a FollowJointTrajectory goal; return it once accepted (or refused)."""
-        assert wait_for(self.ready, timeout), 'no FollowJointTrajectory server'
+        assert wait_for(self.ready, timeout, 0.05), \
+            f'no FollowJointTrajectory server (or its process did not match this client: ' \
+            f'server_is_ready {self.arm.server_is_ready()})'
         fut = self._call(lambda: self.arm.send_goal_async(goal))
-        assert wait_for(fut.done, timeout), 'no goal response'
+        assert wait_for(fut.done, timeout), "no goal response (see the server's log)"
         handle = fut.result()
         assert handle.accepted, 'goal not accepted'
         return SentGoal(bytes(handle.goal_id.uuid), handle, self._call(handle.get_result_async))

@@ -8,7 +8,7 @@ ABORTED with the reason.
 """
 from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory
-from nodes_helpers import duration, start_node, STARTUP_TIMEOUT, wait_for
+from nodes_helpers import duration, ServerSide, start_node, STARTUP_TIMEOUT, wait_for
 from px100_control.models.registry import load_robot
 import pytest
 from rclpy.action import ActionClient
@@ -28,56 +28,67 @@ def _goal(target):
     return goal
 
 
-def _send(node, client, goal, timeout):
-    """Send from the node's executor thread (ros2/rclpy#1123); return the GetResult response."""
-    task = node.executor.create_task(lambda: client.send_goal_async(goal))
-    assert wait_for(task.done, 10.0), 'the executor did not run the call'
-    sent = task.result()
-    assert wait_for(sent.done, 10.0), 'no goal response'
+@pytest.fixture(scope='module')
+def servers(processes):
+    """Start both tests' trajectory_servers at once (their start-ups overlap); return them."""
+    return {'early_goal': start_node(processes, 'trajectory_server', 'robot_name:=early_goal',
+                                     'state_timeout:=60.0'),
+            'no_driver': start_node(processes, 'trajectory_server', 'robot_name:=no_driver',
+                                    'state_timeout:=0.5')}
+
+
+def _client(ros_ctx, spinner, server, ns):
+    """Return (node, ActionClient) once the server's process has matched the client."""
+    node = spinner.add(Node(f'{ns}_client', context=ros_ctx))
+    name = f'/{ns}/arm_controller/follow_joint_trajectory'
+    client = ActionClient(node, FollowJointTrajectory, name)
+    side = ServerSide(node, name)
+    assert wait_for(lambda: client.server_is_ready() and side.matched(), STARTUP_TIMEOUT,
+                    0.05), f'server_is_ready {client.server_is_ready()}\n{server.output()}'
+    return node, client
+
+
+def _call(node, fn, what):
+    """Return fn()'s future, called in the node's executor thread (ros2/rclpy#1123)."""
+    task = node.executor.create_task(fn)
+    assert wait_for(task.done, 10.0), f'the executor did not run the {what} call'
+    return task.result()
+
+
+def _accepted(node, client, goal, server):
+    """Send a goal; return its handle once accepted."""
+    sent = _call(node, lambda: client.send_goal_async(goal), 'send_goal')
+    assert wait_for(sent.done, 10.0), f'no goal response:\n{server.output()[-3000:]}'
     handle = sent.result()
-    assert handle.accepted
-    task = node.executor.create_task(handle.get_result_async)
-    assert wait_for(task.done, 10.0), 'the executor did not run the call'
-    result = task.result()
-    assert wait_for(result.done, timeout), 'no result'
-    return result.result()
+    assert handle.accepted, server.output()[-3000:]
+    return handle
 
 
-def test_goal_waits_for_the_driver_that_starts_after_it(ros_ctx, spinner, processes):
+def test_goal_waits_for_the_driver_that_starts_after_it(ros_ctx, spinner, processes, servers):
     """The goal is sent with no driver; sim_driver starts then: SUCCEEDED, no refusal."""
     ns = 'early_goal'
-    server = start_node(processes, 'trajectory_server', f'robot_name:={ns}',
-                        'state_timeout:=60.0')
-    node = spinner.add(Node('early_goal_client', context=ros_ctx))
-    client = ActionClient(node, FollowJointTrajectory,
-                          f'/{ns}/arm_controller/follow_joint_trajectory')
-    assert client.wait_for_server(timeout_sec=STARTUP_TIMEOUT), server.output()
-    task = node.executor.create_task(lambda: client.send_goal_async(_goal([0.3, 0, 0, 0])))
-    assert wait_for(task.done, 10.0)
-    assert wait_for(task.result().done, 10.0), server.output()
-    handle = task.result().result()
-    assert handle.accepted
+    server = servers[ns]
+    node, client = _client(ros_ctx, spinner, server, ns)
+    handle = _accepted(node, client, _goal([0.3, 0, 0, 0]), server)
     driver = start_node(processes, 'sim_driver', f'robot_name:={ns}', "scene:=''")
-    task = node.executor.create_task(handle.get_result_async)
-    assert wait_for(task.done, 10.0)
-    assert wait_for(task.result().done, STARTUP_TIMEOUT + 30.0), \
+    result = _call(node, handle.get_result_async, 'get_result')
+    assert wait_for(result.done, STARTUP_TIMEOUT + 30.0), \
         server.output()[-3000:] + driver.output()[-2000:]
-    res = task.result().result()
+    res = result.result()
     assert res.status == GoalStatus.STATUS_SUCCEEDED, (res.result.error_string,
                                                        server.output()[-3000:])
     assert 'no joint_states' not in server.output()
 
 
-def test_goal_with_no_driver_ends_aborted_naming_it(ros_ctx, spinner, processes):
+def test_goal_with_no_driver_ends_aborted_naming_it(ros_ctx, spinner, servers):
     """No driver within state_timeout: ABORTED, INVALID_GOAL, 'no joint_states ... yet'."""
     ns = 'no_driver'
-    server = start_node(processes, 'trajectory_server', f'robot_name:={ns}',
-                        'state_timeout:=0.5')
-    node = spinner.add(Node('no_driver_client', context=ros_ctx))
-    client = ActionClient(node, FollowJointTrajectory,
-                          f'/{ns}/arm_controller/follow_joint_trajectory')
-    assert client.wait_for_server(timeout_sec=STARTUP_TIMEOUT), server.output()
-    res = _send(node, client, _goal([0.3, 0, 0, 0]), 30.0)
-    assert res.status == GoalStatus.STATUS_ABORTED
+    server = servers[ns]
+    node, client = _client(ros_ctx, spinner, server, ns)
+    handle = _accepted(node, client, _goal([0.3, 0, 0, 0]), server)
+    result = _call(node, handle.get_result_async, 'get_result')
+    assert wait_for(result.done, 30.0), f'no result:\n{server.output()[-3000:]}'
+    res = result.result()
+    assert res.status == GoalStatus.STATUS_ABORTED, server.output()[-3000:]
     assert res.result.error_code == FollowJointTrajectory.Result.INVALID_GOAL
     assert 'no joint_states from the driver yet' in res.result.error_string
