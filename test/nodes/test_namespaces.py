@@ -10,14 +10,19 @@ Robot namespace and relative names, as ``ros2 run`` users drive them (real proce
   the other robot does not move.
 """
 import math
-import time
 
-from nodes_helpers import IkClient, STARTUP_TIMEOUT, TrajectoryClient, wait_for
+from control_msgs.msg import JointTolerance
+from nodes_helpers import (arm_goal, duration, IkClient, STARTUP_TIMEOUT, TrajectoryClient,
+                           wait_for)
 from px100_control.tools.processes import NodeProcess
 import pytest
 
 GLOBAL = {'/diagnostics', '/rosout', '/parameter_events', '/clock'}
 NODES = ('sim_driver', 'ik_service', 'trajectory_server')
+#: the names test_without_a_namespace_the_names_stay_what_they_were checks
+DEFAULT_NAMES = ('/px100/joint_states', '/px100/ee_pose', '/px100/robot_description',
+                 '/px100/commands/joint_setpoints', '/px100/torque_enable', '/px100/reset',
+                 '/px100/sim_driver/set_parameters')
 SEND_GOAL = '/arm_controller/follow_joint_trajectory/_action/send_goal'
 
 
@@ -35,11 +40,12 @@ def _wait_node(probe, ns, name, proc, timeout=STARTUP_TIMEOUT):
     assert ok and proc.alive(), f'{ns}/{name} did not come up:\n{proc.output()[-2000:]}'
 
 
-def _names(probe, name, ns, ready=None, timeout=STARTUP_TIMEOUT):
+def _names(probe, name, ns, expect, timeout=STARTUP_TIMEOUT):
     """
-    Return (published, subscribed, services) names of a node.
+    Return (published, subscribed, services) names of a node once ``expect`` are all among them.
 
-    :param ready: a name (topic or service) whose presence means the node finished building
+    :param expect: names (topics and services) the node has once it is built: the test's
+        assertions' names, so none is checked before this probe has discovered it
     """
     def snapshot():
         try:
@@ -48,11 +54,18 @@ def _names(probe, name, ns, ready=None, timeout=STARTUP_TIMEOUT):
                     {t for t, _ in probe.get_service_names_and_types_by_node(name, ns)})
         except Exception:   # noqa: B902 - the node is not (yet) discovered by this probe
             return set(), set(), set()
-    if ready is not None:
-        assert wait_for(lambda: any(ready in part for part in snapshot()), timeout, 0.1), \
-            (name, ready, snapshot())
-    time.sleep(1.0)       # discovery of the entities created after it
+    expect = set(expect)
+    assert wait_for(lambda: expect <= set().union(*snapshot()), timeout, 0.1), \
+        (name, expect - set().union(*snapshot()), snapshot())
     return snapshot()
+
+
+def _why(client, goal):
+    """Return a goal's result (error_code, error_string) and its last /diagnostics message."""
+    diag = client.last_diagnostic(goal, 1.0)
+    res = goal.result.result().result if goal.result.done() else None
+    return ((res.error_code, res.error_string) if res is not None else 'no result',
+            diag.message if diag is not None else 'no diagnostics')
 
 
 def _get_param(probe, fqn, name):
@@ -78,7 +91,7 @@ def test_without_a_namespace_the_names_stay_what_they_were(probe, processes):
     """`ros2 run px100_control sim_driver`: node /px100/sim_driver, topics /px100/..."""
     proc = _start(processes, 'sim_driver')
     _wait_node(probe, '/px100', 'sim_driver', proc)
-    pubs, subs, srvs = _names(probe, 'sim_driver', '/px100', '/px100/reset')
+    pubs, subs, srvs = _names(probe, 'sim_driver', '/px100', DEFAULT_NAMES)
     assert {'/px100/joint_states', '/px100/ee_pose', '/px100/robot_description'} <= pubs
     assert '/px100/commands/joint_setpoints' in subs
     assert {'/px100/torque_enable', '/px100/reset', '/px100/sim_driver/set_parameters'} <= srvs
@@ -91,11 +104,13 @@ def test_robot_name_places_a_node_started_without_namespace(probe, processes):
     """`-p robot_name:=arm7` (no __ns): the node and its names move to /arm7."""
     proc = _start(processes, 'trajectory_server', '-p', 'robot_name:=arm7')
     _wait_node(probe, '/arm7', 'trajectory_server', proc)
-    pubs, subs, _ = _names(probe, 'trajectory_server', '/arm7', '/arm7/trajectory/feedback')
+    pubs, subs, _ = _names(probe, 'trajectory_server', '/arm7', [
+        '/arm7/trajectory/feedback', '/arm7/commands/joint_setpoints', '/arm7/joint_states'])
     assert {'/arm7/trajectory/feedback', '/arm7/commands/joint_setpoints'} <= pubs
     assert '/arm7/joint_states' in subs
     # its actions are served by its helper node, in the same namespace
-    _, _, srvs = _names(probe, 'trajectory_actions', '/arm7', '/arm7' + SEND_GOAL)
+    _, _, srvs = _names(probe, 'trajectory_actions', '/arm7', [
+        '/arm7' + SEND_GOAL, '/arm7/gripper_controller/gripper_cmd/_action/send_goal'])
     assert '/arm7/gripper_controller/gripper_cmd/_action/send_goal' in srvs
     proc.stop()
 
@@ -108,10 +123,12 @@ def test_ns_and_relative_remap_move_every_name(probe, processes):
     for name, proc in procs.items():
         _wait_node(probe, '/other', name, proc)
     seen = {}
-    ready = {'sim_driver': '/other/reset', 'ik_service': '/other/compute_cartesian_path',
-             'trajectory_server': '/other/trajectory/feedback'}
+    ready = {'sim_driver': ['/other/js', '/other/torque_enable', '/other/reset'],
+             'ik_service': ['/other/js', '/other/compute_ik', '/other/compute_cartesian_path'],
+             'trajectory_server': ['/other/js', '/other/trajectory/feedback']}
     for name in NODES:
-        pubs, subs, srvs = _names(probe, name, '/other', ready[name])
+        pubs, subs, srvs = _names(probe, name, '/other',
+                                  ready[name] + [f'/other/{name}/get_parameters'])
         seen[name] = (pubs, subs, srvs)
         for topic in (pubs | subs | srvs) - GLOBAL:
             assert topic.startswith('/other/'), (name, topic)
@@ -123,7 +140,7 @@ def test_ns_and_relative_remap_move_every_name(probe, processes):
     assert {'/other/torque_enable', '/other/reset'} <= seen['sim_driver'][2]
     assert {'/other/compute_ik', '/other/compute_cartesian_path'} <= seen['ik_service'][2]
     assert '/other' + SEND_GOAL in _names(probe, 'trajectory_actions', '/other',
-                                          '/other' + SEND_GOAL)[2]
+                                          ['/other' + SEND_GOAL])[2]
     frames = []
     sub = probe.create_subscription(PoseStamped, '/other/ee_pose',
                                     lambda m: frames.append(m.header.frame_id), 10)
@@ -165,9 +182,18 @@ def test_two_robots_side_by_side_by_namespace_alone(ros_ctx, spinner, probe, pro
     for a, b, ta, tb in zip(path.points, path.points[1:], times, times[1:]):
         speed = max(abs(x - y) for x, y in zip(a.positions, b.positions)) / (tb - ta)
         assert speed <= 1.0 + 1e-6, speed                      # max_path_joint_velocity
-    goal = arm1.send(path.joint_names,
-                     [(t, pt.positions) for t, pt in zip(times, path.points)])
-    assert arm1.wait_terminal(goal, times[-1] + 20.0) == 'SUCCEEDED', arm1.statuses(goal)
+    goal = arm_goal(path.joint_names, [(t, pt.positions) for t, pt in zip(times, path.points)])
+    # no path tolerance: this bringup follows the wall clock, and a process not scheduled for
+    # 0.61 s (load 10 on 2 cores) made the goal's setpoints run 0.6 rad ahead of an arm that
+    # the stalled driver could not move, a correct ABORT but not what this test is about
+    # (tracking aborts: test_actions, test_goal_executor); the end is still checked (goal
+    # tolerance, and within 0.01 rad below), with time to settle after such a stall
+    goal.path_tolerance = [JointTolerance(name=n, position=-1.0) for n in path.joint_names]
+    goal.goal_time_tolerance = duration(5.0)
+    goal = arm1.send_goal(goal)
+    status = arm1.wait_terminal(goal, times[-1] + 20.0)
+    assert status == 'SUCCEEDED', \
+        f'{arm1.statuses(goal)} {_why(arm1, goal)}\n/arm1 bringup:\n{b1.output()[-3000:]}'
     end = arm1.measured()
     for name, q in zip(path.joint_names, path.points[-1].positions):
         assert abs(end[name] - q) < 0.01, (name, end[name], q)
