@@ -6,10 +6,11 @@ an IK solution executed as a goal puts the simulated end effector on the target;
 the simulated arm to rest. Times are message stamps (the nodes' clocks: the goal starts at the
 stamp of its first setpoint), so the checks do not depend on how late this test process reads.
 
-The timed checks run on simulated time (the sim_driver owns ``/clock`` and runs it at 1/4 of the
-wall speed, the other nodes run with ``use_sim_time``): a simulation or a node that could not keep
-up with real time on a loaded machine then neither lags nor starves the others, so the timing
-checked is the system's, not the machine load's.
+The checks run on simulated time (the sim_driver owns ``/clock``, the other nodes run with
+``use_sim_time``). The timed check runs it at 1/4 of the wall speed: a simulation or a node that
+could not keep up with real time on a loaded machine then neither lags nor starves the others, so
+the timing checked is the system's, not the machine load's. The untimed checks (the IK solution
+reaches its pose, a cancel stops the arm short of its goal) run it at real time (RTF_UNTIMED).
 The wall-clock deployment is exercised by test_bringup_nodes.py.
 """
 import threading
@@ -27,6 +28,11 @@ pytestmark = pytest.mark.ros
 
 MODEL = load_robot('px100')
 ARM = list(MODEL.joint_names)
+#: sim_driver's real_time_factor for the timed check (test_goal_reaches_final_position_on_time)
+RTF_TIMED = 0.25
+#: ... and for the checks of where the arm ends, not when (a cancel sent 0.3 rad into a 1.2 rad
+#: move must stop it short of 1.15 rad: at 1 rad/s of simulated time, a cancel late by 0.8 s)
+RTF_UNTIMED = 1.0
 
 
 def _ns(stamp) -> int:
@@ -85,12 +91,31 @@ class Recorder:
             return self.ee[-1][1]
 
 
+def set_rtf(node, driver, rtf: float, timeout: float = 30.0) -> None:
+    """Set sim_driver's real_time_factor (its own clock's speed) and wait until it took it."""
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+    client = AsyncParameterClient(node, '/px100/sim_driver')
+    deadline = time.monotonic() + timeout
+    assert client.wait_for_services(timeout_sec=timeout), 'no sim_driver parameter services'
+    while time.monotonic() < deadline:
+        # asked again when unanswered: an answer sent before the driver matched this new
+        # client's reply reader is lost (and setting the same value twice is harmless)
+        future = client.set_parameters([Parameter('real_time_factor', value=float(rtf))])
+        if wait_for(future.done, 2.0):
+            result = future.result().results[0]
+            assert result.successful, result.reason
+            return
+    raise AssertionError(f'sim_driver did not answer set_parameters: {driver.output()[-2000:]}')
+
+
 @pytest.fixture(scope='module')
 def graph(ros_ctx, spinner, processes):
     """Start the graph on simulated time; return (client, ik, recorder)."""
-    # simulated time at 1/4 of the wall speed: every process gets 4x the time it needs, so
-    # the timing checked is the system's even on a loaded 2-core machine
-    start_node(processes, 'sim_driver', 'publish_clock:=true', 'real_time_factor:=0.25')
+    # simulated time at 1/4 of the wall speed for the timed check: every process gets 4x the
+    # time it needs, so the timing checked is the system's even on a loaded 2-core machine
+    driver = start_node(processes, 'sim_driver', 'publish_clock:=true',
+                        f'real_time_factor:={RTF_TIMED}')
     server = start_node(processes, 'trajectory_server', 'use_sim_time:=true',
                         'state_timeout:=3.0')
     start_node(processes, 'ik_service', 'use_sim_time:=true')
@@ -101,8 +126,7 @@ def graph(ros_ctx, spinner, processes):
     assert wait_for(client.ready, STARTUP_TIMEOUT), \
         server.output()
     assert wait_for(ik.ready, STARTUP_TIMEOUT)
-    time.sleep(1.0)
-    yield client, ik, recorder
+    yield client, ik, recorder, driver
     for proc in processes:
         assert proc.alive(), proc.output()
 
@@ -113,14 +137,13 @@ def graph(ros_ctx, spinner, processes):
 ])
 def test_goal_reaches_final_position_on_time(graph, target, moving_time):
     """Measured joints within 2 mrad of the goal by moving_time + 0.5 s; status SUCCEEDED."""
-    client, _, rec = graph
-    time.sleep(0.3)
-    k = rec.setpoint_count()
+    client, _, rec, driver = graph
+    set_rtf(client, driver, RTF_TIMED)
+    k = rec.setpoint_count()    # no goal runs: the setpoints from k on are this goal's
     goal = client.send(ARM, [(moving_time, target)])
     status = client.wait_terminal(goal, moving_time + 20.0)
     assert status == 'SUCCEEDED', client.last_diagnostic(goal).message
     t0 = rec.setpoint_stamp(k)
-    time.sleep(0.3)
     assert wait_for(lambda: rec.now() > t0 + int((moving_time + 1.0) * 1e9), 20.0)
     states = rec.states_since(t0)
     err = [(t, float(np.max(np.abs(q - np.array(target))))) for t, q in states]
@@ -139,7 +162,8 @@ def test_goal_reaches_final_position_on_time(graph, target, moving_time):
 
 def test_ik_solution_executed_puts_the_end_effector_on_target(graph):
     """ik_service solution sent as a goal: the simulated ee_pose reaches the target pose."""
-    client, ik, rec = graph
+    client, ik, rec, driver = graph
+    set_rtf(client, driver, RTF_UNTIMED)
     T = MODEL.fk(np.array([0.3, -0.3, 0.4, 0.4]))
     res = ik.reply(ik.request(matrix_to_pose(T)))
     assert res.success, res.message
@@ -155,7 +179,8 @@ def test_ik_solution_executed_puts_the_end_effector_on_target(graph):
 
 def test_cancel_brings_the_simulated_arm_to_rest(graph):
     """Cancel mid-move: CANCELED, and the measured arm stops short of the goal and stays."""
-    client, _, rec = graph
+    client, _, rec, driver = graph
+    set_rtf(client, driver, RTF_UNTIMED)
     start = client.measured()['waist']
     goal = client.send(['waist'], [(2.0, [start + 1.2])])
     assert client.wait_status(goal, 'EXECUTING', 10.0)
