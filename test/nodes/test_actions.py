@@ -16,7 +16,7 @@ import time
 from action_msgs.msg import GoalStatus
 from control_msgs.action import FollowJointTrajectory, GripperCommand
 from control_msgs.msg import GripperCommand as GripperCommandMsg, JointTolerance
-from nodes_helpers import duration, start_node, STARTUP_TIMEOUT, wait_for
+from nodes_helpers import duration, ServerSide, start_node, STARTUP_TIMEOUT, wait_for
 import numpy as np
 from px100_control.kinematics.solve import solve_ik
 from px100_control.models.registry import load_robot
@@ -42,6 +42,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                      reliability=ReliabilityPolicy.RELIABLE)
 EVENTS = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
+#: the simulation at twice real time: the driver owns /clock, bringup's other nodes follow it;
+#: the goals' durations, the gripper's stall timeout and the feedback rate are in its time
+SIM_TIME = ('use_sim_time:=true', 'publish_clock:=true', 'real_time_factor:=2.0')
 
 
 class ActionProbe(Node):
@@ -148,10 +151,13 @@ def arm_goal(points, names=ARM, **kwargs):
 def probe(ros_ctx, spinner, processes):
     """Run bringup (default scene) and return an ActionProbe connected to it."""
     proc = start_node(processes, 'bringup', 'path_window:=1.0', 'state_timeout:=3.0',
-                      'goal_time_tolerance:=5.0')
+                      'goal_time_tolerance:=5.0', *SIM_TIME)
     node = spinner.add(ActionProbe(context=ros_ctx))
     assert node.arm.wait_for_server(timeout_sec=STARTUP_TIMEOUT), proc.output()
     assert node.gripper.wait_for_server(timeout_sec=10.0), proc.output()
+    side = ServerSide(node, ARM_ACTION)   # bringup serves both actions: one answer covers both
+    assert wait_for(side.matched, STARTUP_TIMEOUT, 0.05), \
+        'bringup did not match the action clients\n' + proc.output()
     assert wait_for(lambda: node.js is not None, 10.0), proc.output()
     node.proc = proc
     return node
