@@ -115,9 +115,8 @@ def test_replay_into_a_live_graph_withholds_commands(node_process, tmp_path, sen
                             'trajectory/goal', 'commands/joint_setpoints', '--ros-args', '-p',
                             f'robot_name:={ns}')
     assert listener.wait_for_output('ready', 30.0), listener.output()
-    time.sleep(2.0)
     # --send-commands: the setpoint needs recorder + sim_driver as subscribers before it goes
-    # out
+    # out (withheld, nothing goes out: no wait needed)
     args = ['--send-commands', '--wait-for-subscribers', '20', '--min-subscribers', '2'] \
         if send else []
     replay = node_process('replay', bag, *args, '--ros-args', '-p', f'robot_name:={ns}')
