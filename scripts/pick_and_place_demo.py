@@ -377,22 +377,30 @@ class Demo:
                 return
             last = width
 
-    def move_object(self, name: str, target, position=None) -> bool:
-        """Pick ``name`` at ``position`` [m] (None: where the world says); place it at target."""
+    def move_object(self, name: str, target, position=None, shift: float = 0.0) -> bool:
+        """
+        Pick ``name`` at ``position`` [m] (None: where the world says); place it at target.
+
+        ``shift`` [m]: the grasp point moves that far off the centre along the closing
+        direction (grasp_shift: room for an open pad beside a neighbour).
+        """
         if position is None:
             position = self.bot.world.get_object_pose(name)[:3, 3]
         grasp = position + np.array([0.0, 0.0, GRASP_ABOVE_CENTRE])
-        if self.grasp_offset:
+        offset = self.grasp_offset + shift
+        if offset:
             radial = grasp[:2] / max(1e-9, float(np.hypot(*grasp[:2])))
             tangential = np.array([-radial[1], radial[0]])     # the fingers close along it
-            grasp[:2] += self.grasp_offset * tangential
+            grasp[:2] += offset * tangential
         place = np.array(target, dtype=float) + np.array([0.0, 0.0, GRASP_ABOVE_CENTRE
                                                           + RELEASE_HEIGHT])
         p_pitch = self.pitch_for(grasp)
         d_pitch = self.pitch_for(place, prefer=p_pitch)
         print(f'{name}: at {np.round(1000 * position, 1).tolist()} mm -> target '
               f'{np.round(1000 * np.asarray(target), 1).tolist()} mm '
-              f'(pitch {p_pitch:.2f} / {d_pitch:.2f} rad)')
+              f'(pitch {p_pitch:.2f} / {d_pitch:.2f} rad)'
+              + (f', grasped {1000 * shift:+.1f} mm off centre: room for the open fingers'
+                 if shift else ''))
         if math.isnan(p_pitch) or math.isnan(d_pitch):
             where = 'its position' if math.isnan(p_pitch) else 'its target'
             self.failures.append(f'{name}: unreachable')
@@ -424,6 +432,14 @@ class Demo:
 
 #: distance [m] of an open finger pad's centre from the grasp point, along the closing direction
 OPEN_PAD = 0.036
+#: half-extents [m] of a finger pad's footprint (the px100's MuJoCo pad: 30 mm along the arm,
+#: 5 mm thick along the closing direction)
+PAD_HALF_ALONG, PAD_HALF_THICK = 0.015, 0.0025
+#: room [m] an open pad keeps from a neighbour's footprint on the way down
+PAD_MARGIN = 0.003
+#: farthest [m] a grasp point moves off the object's centre along the closing direction to give
+#: a pad that room (the closing fingers centre the object between them)
+MAX_GRASP_SHIFT = 0.010
 
 
 def footprint_radius(info) -> float:
@@ -434,12 +450,12 @@ def footprint_radius(info) -> float:
 
 def clearance(name: str, bodies: dict) -> float:
     """
-    Return the room [m] the open fingers have around ``name``.
+    Return the room [m] around ``name`` from the open pads' centres: the pick order's measure.
 
     That is the smallest distance from an open pad's centre to another object's footprint. The
     fingers close along the horizontal direction perpendicular to the object's bearing from
-    the base (the px100 has no wrist rotation), so an object with a neighbour on that line can
-    only be picked once the neighbour is gone. ``bodies``: name -> WorldMarker of the objects.
+    the base (the px100 has no wrist rotation), so an object with a neighbour on that line is
+    better picked once the neighbour is gone. ``bodies``: name -> WorldMarker of the objects.
     """
     p = np.array(bodies[name].position[:2])
     u = np.array([-p[1], p[0]]) / max(1e-9, float(np.hypot(*p)))
@@ -453,15 +469,67 @@ def clearance(name: str, bodies: dict) -> float:
     return room
 
 
-def pick_order(world, names) -> list:
+def pad_room(name: str, bodies: dict, shift: float = 0.0) -> float:
     """
-    Return ``names`` in the order to pick them: each time the one whose fingers have the most room.
+    Return the room [m] the open fingers have around ``name``, the grasp ``shift`` [m] off.
 
-    Reads the objects' current poses; placed objects are assumed at their targets later on,
-    so the order is planned again before every pick (see main).
+    That is the smallest distance from an open pad's footprint (a PAD_HALF_ALONG x
+    PAD_HALF_THICK rectangle) to another object's footprint circle, the pads OPEN_PAD either
+    side of the grasp point. The fingers close along the horizontal direction perpendicular to
+    the object's bearing from the base (the px100 has no wrist rotation); the grasp point is
+    the object's centre moved ``shift`` along that direction. ``bodies``: name -> WorldMarker
+    (or a body with position, shape, scale) of the objects.
     """
-    bodies = {n: world.get_object_info(n) for n in world.list_objects()}
-    return sorted(names, key=lambda n: -clearance(n, bodies))
+    p = np.array(bodies[name].position[:2], dtype=float)
+    along = p / max(1e-9, float(np.hypot(*p)))
+    closing = np.array([-along[1], along[0]])
+    room = math.inf
+    for side in (1.0, -1.0):
+        pad = p + (shift + side * OPEN_PAD) * closing
+        for other, info in bodies.items():
+            if other == name:
+                continue
+            d = np.asarray(info.position[:2], dtype=float) - pad
+            outside = np.array([max(abs(float(d @ along)) - PAD_HALF_ALONG, 0.0),
+                                max(abs(float(d @ closing)) - PAD_HALF_THICK, 0.0)])
+            room = min(room, float(np.hypot(*outside)) - footprint_radius(info))
+    return room
+
+
+def grasp_shift(name: str, bodies: dict) -> tuple:
+    """
+    Return (shift [m], room [m]): where along the closing direction to grasp ``name``.
+
+    No shift when the pads have PAD_MARGIN of room over the object's centre; else the smallest
+    shift (up to MAX_GRASP_SHIFT, 0.5 mm steps) that gives them that room, or the one that
+    gives the most room when none does.
+    """
+    room = pad_room(name, bodies)
+    if room >= PAD_MARGIN:
+        return 0.0, room
+    steps = [k * 0.0005 for k in range(1, int(round(MAX_GRASP_SHIFT / 0.0005)) + 1)]
+    best = (0.0, room)
+    for magnitude in steps:
+        for shift in (magnitude, -magnitude):
+            r = pad_room(name, bodies, shift)
+            if r >= PAD_MARGIN:
+                return shift, r
+            if r > best[1]:
+                best = (shift, r)
+    return best
+
+
+def plan_pick(bodies: dict, names) -> tuple:
+    """
+    Return (name, shift [m]) of the next object to pick and where to grasp it.
+
+    The object whose open pads' centres have the most room (clearance) goes first; its grasp
+    is shifted off centre where a pad's footprint would land on a neighbour (grasp_shift).
+    ``bodies``: every object's footprint now (placed ones at their targets); the order is
+    planned again before every pick (see main).
+    """
+    name = max(names, key=lambda n: clearance(n, bodies))
+    return name, grasp_shift(name, bodies)[0]
 
 
 def perceive(bot, args, scene: str):
@@ -492,7 +560,7 @@ def perceive(bot, args, scene: str):
     return eyes, found, world.objects
 
 
-def look_again(bot, eyes, name, seen, scene_objects, demo, target) -> None:
+def look_again(bot, eyes, name, seen, scene_objects, demo, target, shift=0.0) -> None:
     """
     After a failed move (--perception): look from sleep; still where it was seen, try again.
 
@@ -503,15 +571,14 @@ def look_again(bot, eyes, name, seen, scene_objects, demo, target) -> None:
     now = eyes.locate({name: body.rgba}).get(name)
     if now is not None and np.linalg.norm(now[:2] - seen[name][:2]) < 0.005:
         print(f'  {name}: still where it was seen, trying once more')
-        demo.move_object(name, target, now)
+        demo.move_object(name, target, now, shift)
 
 
-def perceived_order(seen: dict, scene_objects, remaining: list, goal: dict) -> list:
-    """Return ``remaining`` in pick order from the seen positions (moved ones at their goal)."""
+def perceived_bodies_now(seen: dict, scene_objects, remaining: list, goal: dict) -> dict:
+    """Return the footprints of the seen objects, those already moved at their goal."""
     from px100_control.client.camera_objects import perceived_bodies
     where = {n: (goal[n] if n not in remaining else p) for n, p in seen.items()}
-    bodies = perceived_bodies(where, scene_objects)
-    return sorted(remaining, key=lambda n: -clearance(n, bodies) if n in bodies else 0.0)
+    return perceived_bodies(where, scene_objects)
 
 
 def quiet_goal_lines(robot_name: str) -> None:
@@ -680,23 +747,29 @@ def main(argv=None) -> int:
         while remaining:     # the object with the most room for the open fingers first
             bot.world.wait_for_update(0.5)
             if eyes is not None:
-                name = perceived_order(seen, scene_objects, remaining, goal)[0]
-                remaining.remove(name)
-                if name not in seen:
+                unseen = [n for n in remaining if n not in seen]
+                if unseen:
+                    name = unseen[0]
+                    remaining.remove(name)
                     print(f'{name}: not seen by the camera, not picked')
                     demo.failures.append(f'{name}: not seen')
-                elif not demo.move_object(name, goal[name], seen[name]):
-                    look_again(bot, eyes, name, seen, scene_objects, demo, goal[name])
+                    continue
+                name, shift = plan_pick(
+                    perceived_bodies_now(seen, scene_objects, remaining, goal), remaining)
+                remaining.remove(name)
+                if not demo.move_object(name, goal[name], seen[name], shift):
+                    look_again(bot, eyes, name, seen, scene_objects, demo, goal[name], shift)
                 continue
-            name = pick_order(bot.world, remaining)[0]
+            name, shift = plan_pick({n: bot.world.get_object_info(n)
+                                     for n in bot.world.list_objects()}, remaining)
             remaining.remove(name)
-            if not demo.move_object(name, goal[name]):
+            if not demo.move_object(name, goal[name], shift=shift):
                 # a move failed (on a loaded machine: the simulation stalled and a move was
                 # aborted): if the object is still where it was, try it once more
                 at = bot.world.get_object_pose(name)[:3, 3]
                 if np.linalg.norm(at - start[name]) < 0.005:
                     print(f'  {name}: still at its start, trying once more')
-                    demo.move_object(name, goal[name])
+                    demo.move_object(name, goal[name], shift=shift)
         trace.phase('Sleep')
         bot.gripper.release(delay=0.2)
         bot.arm.go_to_sleep_pose(moving_time=max(1.5, args.moving_time), accel_time=0.3)
