@@ -4,19 +4,23 @@ The viewer in a real browser: headless Chromium (Playwright) on the page of a re
 bringup (sim_driver, ik_service, trajectory_server) and two viewers (one with controls, one
 read-only) run as installed executables over Fast DDS; this process watches the graph with an
 rclpy node and publishes a world as a real MarkerArray. The browser's actions (slider drag,
-gizmo drag) are checked where they must arrive: on joint_states and ee_pose.
+gizmo drag) are checked where they must arrive: on joint_states and ee_pose. The simulation runs
+at 3x real time on sim_driver's clock (the nodes and viewers follow it): the tests check what
+happens, not its pacing.
 """
 import threading
 import time
 
 import numpy as np
 import pytest
-from viewer_support import CANVAS_CLIP, canvas_pixels, colour_pixels, dark_pixels, open_page, \
-    PORT_BASE, wait_for, wait_http, Watcher
+from viewer_support import CANVAS_CLIP, canvas_pixels, colour_pixels, dark_pixels, FAST_SIM, \
+    open_page, pixels, POLL_MS, PORT_BASE, wait_canvas, wait_for, wait_http, wait_page_text, \
+    Watcher
 
 PORT, PORT_RO = PORT_BASE + 1, PORT_BASE + 2
 URL, URL_RO = f'http://127.0.0.1:{PORT}', f'http://127.0.0.1:{PORT_RO}'
 HOME = ('waist', 'shoulder', 'elbow', 'wrist_angle'), (0.0, 0.0, 0.0, 0.0)
+SLEEP = (0.0, -1.88, 1.5, 0.8)
 
 
 @pytest.fixture(scope='module')
@@ -25,10 +29,12 @@ def graph(browser, ros_context):
     from px100_control.tools.processes import NodeProcess
     from rclpy.executors import SingleThreadedExecutor
     # no scene in sim_driver: the world on the page is this test's own MarkerArray
-    procs = [NodeProcess('bringup', ['--no-camera', '--ros-args', '-p', "scene:=''"]),
-             NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}']),
+    procs = [NodeProcess('bringup', ['--no-camera', '--ros-args', '-p', "scene:=''"] + FAST_SIM),
+             NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}',
+                                    '-p', 'use_sim_time:=true']),
              NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT_RO}',
-                                    '-p', 'read_only:=true', '-r', '__node:=viewer_ro'])]
+                                    '-p', 'read_only:=true', '-p', 'use_sim_time:=true',
+                                    '-r', '__node:=viewer_ro'])]
     watcher = Watcher(context=ros_context)
     ex = SingleThreadedExecutor(context=ros_context)
     ex.add_node(watcher)
@@ -63,6 +69,15 @@ def ros_context():
 
 
 @pytest.fixture(scope='module')
+def ro_page(browser, graph):
+    """Yield a page of the read-only viewer: one tab for the module, closed by a test."""
+    pg = open_page(browser, URL_RO)
+    yield pg
+    if not pg.is_closed():
+        pg.close()
+
+
+@pytest.fixture(scope='module')
 def page(browser, graph):
     """Yield the page of the viewer with controls (one tab for the module)."""
     pg = open_page(browser, URL)
@@ -75,8 +90,65 @@ def _go_home(watcher):
     assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
 
 
+#: the page's joint sliders all show positions within tol of the given ones (in slider order)
+SLIDERS_AT = """([q, tol]) => {
+  const s = [...document.querySelectorAll('[role=slider]')];
+  return s.length === q.length &&
+      s.every((e, k) => Math.abs(parseFloat(e.getAttribute('aria-valuenow')) - q[k]) < tol);
+}"""
+
+
+def _wait_sliders(page, positions, timeout: float = 30.0) -> None:
+    """Wait until the page's sliders follow the robot to positions (waist .. wrist_angle)."""
+    try:
+        page.wait_for_function(SLIDERS_AT, arg=[list(positions), 0.02], timeout=timeout * 1000,
+                               polling=POLL_MS)
+    except Exception:  # noqa: B902 - playwright's TimeoutError
+        values = page.evaluate("() => [...document.querySelectorAll('[role=slider]')]"
+                               ".map(e => e.getAttribute('aria-valuenow'))")
+        raise AssertionError(f'the sliders show {values}, not {positions}') from None
+
+
+def test_read_only_page_has_no_controls(ro_page, graph):
+    """
+    The read-only viewer shows the arm but no slider, button or gizmo.
+
+    Run first, before the module's page with controls is opened (one WebGL page at a time) and
+    before the gizmo drag: no IK target is drawn yet (a frame, on every viewer), whose blue z
+    axis the pixel check could take for the gizmo's arrow. That the page with controls does
+    show its four sliders and its buttons (the checks here can fail) is in
+    test_page_connects_and_shows_the_arm_and_world.
+    """
+    # the arm is drawn: the robot is loaded, and with it a page's sliders, buttons, gizmo
+    img = wait_canvas(ro_page, lambda im: '' if dark_pixels(im) > pixels(3000) else
+                      f'{dark_pixels(im)} dark pixels: no arm', 60.0)
+    assert ro_page.locator('[role=slider]').count() == 0
+    assert ro_page.locator('button', has_text='Home').count() == 0
+    assert ro_page.locator('text=Torque off').count() == 0
+    assert _blue_arrow_tip(img) is None, 'a gizmo is drawn on the read-only page'
+
+
+def test_closed_tab_and_dead_viewer_never_stop_the_graph(ro_page, graph):
+    """Closing a tab and killing a viewer (SIGKILL) leave the robot's nodes working."""
+    watcher, procs = graph
+    ro_page.close()                      # the module's tab on the read-only viewer
+    procs[2].proc.kill()
+    procs[2].proc.wait(10)
+    assert procs[1].alive()
+    key = watcher.send_goal(*HOME, moving_time=3.0)
+    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
+    t0 = time.monotonic()
+    watcher.joints = {}
+    assert wait_for(lambda: watcher.position('waist') is not None, 5.0)
+    assert time.monotonic() - t0 < 5.0
+
+
 def test_page_connects_and_shows_the_arm_and_world(page, graph):
-    """The page connects, draws the arm (dark links) and the MarkerArray world (colours)."""
+    """
+    The page connects, draws the arm (dark links) and the MarkerArray world (colours).
+
+    It has the controls: four joint sliders and the Home button.
+    """
     watcher, procs = graph
     for text in ('holding: nothing', 'world: 4 bodies'):
         end, error = time.monotonic() + 90.0, None
@@ -86,7 +158,7 @@ def test_page_connects_and_shows_the_arm_and_world(page, graph):
             watcher.publish_world()
             try:
                 page.wait_for_function('(t) => document.body.innerText.includes(t)',
-                                       arg=text, timeout=2000)
+                                       arg=text, timeout=2000, polling=POLL_MS)
                 error = None
                 break
             except Exception as exc:  # playwright's TimeoutError: try again until the end
@@ -95,11 +167,18 @@ def test_page_connects_and_shows_the_arm_and_world(page, graph):
             pytest.fail(f"'{text}' not on the page in 90 s ({error.__class__.__name__}); page "
                         f'text: {page.evaluate("() => document.body.innerText")[:1500]!r}; '
                         f'viewer log: {procs[1].output()[-2000:]}')
-    page.wait_for_timeout(1500)          # let the software renderer draw a few frames
-    img = canvas_pixels(page)
-    assert dark_pixels(img) > 3000, f'no arm on the canvas ({dark_pixels(img)} dark pixels)'
-    assert colour_pixels(img, (230, 26, 26), 50) > 30, 'the red cube of world/markers is missing'
-    assert colour_pixels(img, (26, 178, 51), 50) > 100, 'the green bin of world/markers is missing'
+    assert page.locator('[role=slider]').count() == 4
+    assert page.locator('button', has_text='Home').count() == 1
+
+    def drawn(img):
+        found = {'dark pixels (the arm)': (dark_pixels(img), pixels(3000)),
+                 'red pixels (the cube of world/markers)':
+                     (colour_pixels(img, (230, 26, 26), 50), pixels(30)),
+                 'green pixels (the bin of world/markers)':
+                     (colour_pixels(img, (26, 178, 51), 50), pixels(100))}
+        return '; '.join(f'{k}: {n} <= {least}' for k, (n, least) in found.items()
+                         if n <= least)
+    wait_canvas(page, drawn, 30.0)
 
 
 def test_arm_on_the_page_moves_when_a_goal_executes(page, graph):
@@ -109,20 +188,21 @@ def test_arm_on_the_page_moves_when_a_goal_executes(page, graph):
     key = watcher.send_goal(('waist', 'shoulder', 'elbow', 'wrist_angle'),
                             (0.6, -0.3, 0.3, 0.2), moving_time=1.5)
     assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
-    page.wait_for_function("() => document.body.innerText.includes('SUCCEEDED')",
-                           timeout=45000)
-    page.wait_for_timeout(800)
-    after = canvas_pixels(page)
-    changed = int((np.abs(after.astype(int) - before.astype(int)).max(axis=2) > 40).sum())
-    assert changed > 2000, f'only {changed} canvas pixels changed after the move'
-    assert dark_pixels(after) > 3000
+    wait_page_text(page, 'SUCCEEDED', 45.0)
+
+    def moved(img):
+        changed = int((np.abs(img.astype(int) - before.astype(int)).max(axis=2) > 40).sum())
+        if changed <= pixels(2000):
+            return f'only {changed} canvas pixels changed after the move'
+        return '' if dark_pixels(img) > pixels(3000) else f'{dark_pixels(img)} dark pixels'
+    wait_canvas(page, moved, 30.0)
 
 
 def test_dragging_a_joint_slider_moves_the_simulated_joint(page, graph):
     """A mouse drag of the waist slider in the browser moves waist on joint_states."""
     watcher, _ = graph
     _go_home(watcher)
-    page.wait_for_timeout(2000)          # the sliders follow the robot again
+    _wait_sliders(page, HOME[1])         # the sliders follow the robot
     label = page.locator('label', has_text='waist').first
     thumb = page.locator(f'[id="{label.get_attribute("for")}"] [role=slider]')
     box = thumb.bounding_box()
@@ -137,28 +217,6 @@ def test_dragging_a_joint_slider_moves_the_simulated_joint(page, graph):
     assert target > 0.3, f'the drag did not move the slider (value {target})'
     assert wait_for(lambda: abs(watcher.position('waist') - target) < 0.03, 15.0), \
         f'waist is {watcher.position("waist"):.3f} rad, slider {target:.3f}'
-
-
-def test_read_only_page_has_no_controls(browser, page, graph):
-    """
-    The read-only viewer shows the arm but no slider, button or gizmo.
-
-    Run before the gizmo drag: no IK target is drawn yet (a frame, on every viewer), whose blue z
-    axis the pixel check could take for the gizmo's arrow.
-    """
-    pg = open_page(browser, URL_RO)
-    try:
-        pg.wait_for_timeout(1500)
-        assert pg.locator('[role=slider]').count() == 0
-        assert pg.locator('button', has_text='Home').count() == 0
-        assert pg.locator('text=Torque off').count() == 0
-        img = canvas_pixels(pg)
-        assert dark_pixels(img) > 3000
-        assert _blue_arrow_tip(img) is None, 'a gizmo is drawn on the read-only page'
-    finally:
-        pg.close()
-    # and the page with controls (the module's) does have them: the check above can fail
-    assert page.locator('[role=slider]').count() == 4
 
 
 def _blue_arrow_tip(img: np.ndarray):
@@ -178,15 +236,26 @@ def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
     """A mouse drag of the gizmo's z arrow calls compute_ik; the arm's end effector rises."""
     watcher, _ = graph
     # from the sleep pose, where the camera of the page sees the gizmo clear of the panel
-    key = watcher.send_goal(HOME[0], (0.0, -1.88, 1.5, 0.8), moving_time=2.0)
+    key = watcher.send_goal(HOME[0], SLEEP, moving_time=2.0)
     assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
-    page.wait_for_timeout(2500)          # the gizmo follows the end effector again
+    # the sliders and the gizmo follow the end effector again (one render moves both): the
+    # sliders at sleep, then the gizmo's arrow drawn at one place in two pictures
+    _wait_sliders(page, SLEEP)
+    tips = []
+
+    def gizmo_still(img):
+        tips.append(_blue_arrow_tip(img))
+        if tips[-1] is None:
+            return 'the gizmo is not on the canvas'
+        if len(tips) < 2 or tips[-2] is None or \
+                max(abs(a - b) for a, b in zip(tips[-1], tips[-2])) > 1:
+            return f'the gizmo moves: its arrow tip at {tips[-2:]}'
+        return ''
+    wait_canvas(page, gizmo_still, 30.0)
     assert wait_for(lambda: watcher.ee is not None, 5.0)
     z0 = watcher.ee[2]
     n_requests = len(watcher.ik_requests)
-    tip = _blue_arrow_tip(canvas_pixels(page))
-    assert tip is not None, 'the gizmo is not on the canvas'
-    x, y = tip[0] + CANVAS_CLIP['x'], tip[1] + CANVAS_CLIP['y'] + 10
+    x, y = tips[-1][0] + CANVAS_CLIP['x'], tips[-1][1] + CANVAS_CLIP['y'] + 10
     page.mouse.move(x, y)
     page.mouse.down()
     for k in range(1, 11):
@@ -199,23 +268,7 @@ def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
     assert frame == 'px100/base_link'
     assert target[2] > z0 + 0.01, f'IK target z {target[2]:.3f} not above {z0:.3f}'
     assert wait_for(lambda: watcher.ee[2] > z0 + 0.01, 15.0), \
-        f'end effector z {watcher.ee[2]:.3f} did not rise from {z0:.3f}'
-
-
-def test_closed_tab_and_dead_viewer_never_stop_the_graph(browser, graph):
-    """Closing a tab and killing a viewer (SIGKILL) leave the robot's nodes working."""
-    watcher, procs = graph
-    pg = open_page(browser, URL_RO)
-    pg.close()
-    procs[2].proc.kill()
-    procs[2].proc.wait(10)
-    assert procs[1].alive()
-    key = watcher.send_goal(*HOME, moving_time=3.0)
-    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
-    t0 = time.monotonic()
-    watcher.joints = {}
-    assert wait_for(lambda: watcher.position('waist') is not None, 5.0)
-    assert time.monotonic() - t0 < 5.0
+        f'end effector z {watcher.ee[2]:.3f} did not rise from {z0:.3f}; {watcher.evidence()}'
 
 
 def test_buttons_act_through_the_ros_interfaces(page, graph):
@@ -239,5 +292,4 @@ def test_buttons_act_through_the_ros_interfaces(page, graph):
                        ('Torque on', 'viewer: torque on: done'),
                        ('Reset scene', 'scene reset: done')):
         page.get_by_role('button', name=name).click()
-        page.wait_for_function('(t) => document.body.innerText.includes(t)', arg=text,
-                               timeout=45000)
+        wait_page_text(page, text, 45.0)

@@ -26,8 +26,18 @@ NAMES = {4: 'SUCCEEDED', 5: 'CANCELED', 6: 'ABORTED', 1: 'ACCEPTED', 2: 'EXECUTI
 #: how often [ms] a page wait reads the page: on a timer, not at animation frames (playwright's
 #: default), which a starved software-rendered page draws seldom
 POLL_MS = 100
+#: the page size of the tests: viser's control panel (about 335 px wide) stands at its right,
+#: the arm in the middle of the canvas left of it; Chromium's software WebGL draws every pixel of
+#: the canvas at every frame (about 1 core at 1000x700, half of that at this size)
+VIEWPORT = {'width': 780, 'height': 440}
 #: the canvas part of the page (left of viser's control panel), for pixel checks
-CANVAS_CLIP = {'x': 0, 'y': 160, 'width': 640, 'height': 520}
+CANVAS_CLIP = {'x': 0, 'y': 40, 'width': 440, 'height': 400}
+#: the page height the pixel-count thresholds are stated for: the scene's picture scales with
+#: the canvas height (a fixed vertical field of view), areas with its square
+REFERENCE_HEIGHT = 700
+#: sim_driver (or bringup) on its own clock at 3x real time, and the other nodes on it: for
+#: tests of behaviour, not of wall-time pacing
+FAST_SIM = ['-p', 'use_sim_time:=true', '-p', 'publish_clock:=true', '-p', 'real_time_factor:=3.0']
 
 
 def wait_for(predicate, timeout: float, period: float = 0.05) -> bool:
@@ -175,6 +185,31 @@ def canvas_pixels(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert('RGB'))
 
 
+def pixels(n: float, viewport=None) -> int:
+    """Return a pixel count stated for a REFERENCE_HEIGHT page, scaled to the viewport's area."""
+    height = (viewport or VIEWPORT)['height']
+    return max(1, round(n * (height / REFERENCE_HEIGHT) ** 2))
+
+
+def wait_canvas(page, check, timeout: float, period: float = 0.3) -> np.ndarray:
+    """
+    Read the canvas until ``check(img)`` returns '' (all well); return that picture.
+
+    The software renderer draws the page's changes some frames later: the picture is read
+    again (every ``period`` s) until it shows them, and the test fails with the last reason
+    ``check`` gave at timeout [s].
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        img = canvas_pixels(page)
+        reason = check(img)
+        if not reason:
+            return img
+        if time.monotonic() > deadline:
+            raise AssertionError(f'the canvas after {timeout:g} s: {reason}')
+        page.wait_for_timeout(period * 1000)
+
+
 def dark_pixels(img: np.ndarray) -> int:
     """Count near-black pixels (the arm's links; grid, ground and panel are light)."""
     return int((img.max(axis=2) < 90).sum())
@@ -209,10 +244,18 @@ def wait_page_text(page, text: str, timeout: float, log=None) -> None:
                              f'page says:\n{page_text(page)[:3000]}{extra}') from None
 
 
-def open_page(browser, url: str, timeout: float = 60.0):
-    """Open url in a new page, wait for viser's status panel; close the WebGL notice."""
-    page = browser.new_page(viewport={'width': 1000, 'height': 700})
+def open_page(browser, url: str, timeout: float = 60.0, viewport=None):
+    """
+    Open url in a new page, wait for viser's status panel; hide viser's notices.
+
+    The notice of software WebGL (shown when the canvas starts, up to seconds after the panel)
+    would cover the canvas's top left: notices are hidden by a style, whenever they come.
+
+    :param viewport: the page size (default VIEWPORT)
+    """
+    page = browser.new_page(viewport=viewport or VIEWPORT)
     page.goto(url)
+    page.add_style_tag(content='.mantine-Notification-root { display: none !important; }')
     page.wait_for_selector('text=state', timeout=timeout * 1000)
     # the first joint_states reached the page: 'state t = 0.00 s at 10:34:00.712'
     try:
@@ -222,7 +265,4 @@ def open_page(browser, url: str, timeout: float = 60.0):
         raise AssertionError(f'no joint_states time on the page within {timeout:g} s '
                              f'({exc.__class__.__name__}); the page says:\n'
                              f'{page_text(page)[:3000]}') from None
-    page.wait_for_timeout(500)
-    page.evaluate("() => document.querySelectorAll('.mantine-Notification-closeButton')"
-                  '.forEach(b => b.click())')
     return page
