@@ -28,15 +28,6 @@ def _goal(target):
     return goal
 
 
-@pytest.fixture(scope='module')
-def servers(processes):
-    """Start both tests' trajectory_servers at once (their start-ups overlap); return them."""
-    return {'early_goal': start_node(processes, 'trajectory_server', 'robot_name:=early_goal',
-                                     'state_timeout:=60.0'),
-            'no_driver': start_node(processes, 'trajectory_server', 'robot_name:=no_driver',
-                                    'state_timeout:=0.5')}
-
-
 def _client(ros_ctx, spinner, server, ns):
     """Return (node, ActionClient) once the server's process has matched the client."""
     node = spinner.add(Node(f'{ns}_client', context=ros_ctx))
@@ -64,10 +55,11 @@ def _accepted(node, client, goal, server):
     return handle
 
 
-def test_goal_waits_for_the_driver_that_starts_after_it(ros_ctx, spinner, processes, servers):
+def test_goal_waits_for_the_driver_that_starts_after_it(ros_ctx, spinner, processes):
     """The goal is sent with no driver; sim_driver starts then: SUCCEEDED, no refusal."""
     ns = 'early_goal'
-    server = servers[ns]
+    server = start_node(processes, 'trajectory_server', f'robot_name:={ns}',
+                        'state_timeout:=60.0')
     node, client = _client(ros_ctx, spinner, server, ns)
     handle = _accepted(node, client, _goal([0.3, 0, 0, 0]), server)
     driver = start_node(processes, 'sim_driver', f'robot_name:={ns}', "scene:=''")
@@ -82,10 +74,11 @@ def test_goal_waits_for_the_driver_that_starts_after_it(ros_ctx, spinner, proces
     assert 'no joint_states from the driver yet' not in server.output()
 
 
-def test_goal_with_no_driver_ends_aborted_naming_it(ros_ctx, spinner, servers):
+def test_goal_with_no_driver_ends_aborted_naming_it(ros_ctx, spinner, processes):
     """No driver within state_timeout: ABORTED, INVALID_GOAL, 'no joint_states ... yet'."""
     ns = 'no_driver'
-    server = servers[ns]
+    server = start_node(processes, 'trajectory_server', f'robot_name:={ns}',
+                        'state_timeout:=0.5')
     node, client = _client(ros_ctx, spinner, server, ns)
     handle = _accepted(node, client, _goal([0.3, 0, 0, 0]), server)
     result = _call(node, handle.get_result_async, 'get_result')
