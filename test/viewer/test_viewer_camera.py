@@ -14,7 +14,7 @@ from px100_control.sim.scene import load_scene
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from viewer_support import open_page, PORT_BASE, wait_for, wait_http
+from viewer_support import open_page, PORT_BASE, VIEWPORT, wait_for, wait_http
 
 pytestmark = pytest.mark.ros
 
@@ -92,7 +92,7 @@ def test_no_camera_no_panel_no_error(rclpy_context, spin_node, browser):
     """A viewer without a camera: the page opens, no Camera panel, no frustum, no fault."""
     viewer = spin_node(_viewer(rclpy_context, 'px100_nocam', PORT_BASE + 31))
     assert wait_http(viewer.url, 30.0)
-    page = browser.new_page(viewport={'width': 1000, 'height': 700})
+    page = browser.new_page(viewport=VIEWPORT)
     try:
         page.goto(viewer.url)
         page.wait_for_selector('text=state', timeout=60000)

@@ -9,7 +9,7 @@ import threading
 import time
 
 from sensor_msgs.msg import JointState
-from viewer_support import open_page, PORT_BASE, wait_for, wait_http, Watcher
+from viewer_support import open_page, PORT_BASE, VIEWPORT, wait_for, wait_http, Watcher
 
 HOME = ('waist', 'shoulder', 'elbow', 'wrist_angle'), (0.0, 0.0, 0.0, 0.0)
 
@@ -143,7 +143,7 @@ def test_viewer_takes_another_robot_from_its_urdf(browser, rclpy_context, spin_n
                 f"waist {watcher.position('waist'):.3f} rad did not go Home (0)"
         finally:
             page.close()
-        plain = browser.new_page()
+        plain = browser.new_page(viewport=VIEWPORT)
         try:
             plain.goto(f'http://127.0.0.1:{bare.get_port()}')
             plain.wait_for_selector('svg.tabler-icon-share', timeout=60000)

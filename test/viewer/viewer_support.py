@@ -30,8 +30,18 @@ POLL_MS = 100
 #: the arm in the middle of the canvas left of it; Chromium's software WebGL draws every pixel of
 #: the canvas at every frame (about 1 core at 1000x700, half of that at this size)
 VIEWPORT = {'width': 780, 'height': 440}
-#: the canvas part of the page (left of viser's control panel), for pixel checks
-CANVAS_CLIP = {'x': 0, 'y': 40, 'width': 440, 'height': 400}
+#: viser's control panel and its margin: this many pixels at the right of a page [px]
+PANEL_WIDTH = 340
+
+
+def canvas_clip(viewport) -> dict:
+    """Return the canvas part of a page of that size (left of viser's panel) for pixel checks."""
+    return {'x': 0, 'y': 40, 'width': viewport['width'] - PANEL_WIDTH,
+            'height': viewport['height'] - 40}
+
+
+#: the canvas part of a VIEWPORT page
+CANVAS_CLIP = canvas_clip(VIEWPORT)
 #: the page height the pixel-count thresholds are stated for: the scene's picture scales with
 #: the canvas height (a fixed vertical field of view), areas with its square
 REFERENCE_HEIGHT = 700
@@ -181,7 +191,7 @@ def canvas_pixels(page) -> np.ndarray:
     import io
 
     from PIL import Image
-    png = page.screenshot(clip=CANVAS_CLIP, timeout=90000)
+    png = page.screenshot(clip=canvas_clip(page.viewport_size), timeout=90000)
     return np.asarray(Image.open(io.BytesIO(png)).convert('RGB'))
 
 
