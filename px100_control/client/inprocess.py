@@ -36,9 +36,42 @@ NODE_PARAMETERS = {'ik_service': {'orientation_mode': 'strict'},
                    'trajectory_server': {'path_tolerance': 0.5, 'goal_time_tolerance': 2.0}}
 
 
+#: the bringup (in-process or process) whose driver publishes /clock (real_time_factor != 1):
+#: one per client process, as /clock is one topic for the whole graph; later ones follow it
+_clock_owner = None
+
+
+def _driver_clock(bringup) -> dict:
+    """
+    Return the sim_driver parameters that set its clock, taking the clock if nobody has it.
+
+    real_time_factor != 1: the first bringup's driver owns the clock (its speed, /clock); the
+    drivers of the later ones follow /clock (use_sim_time). real_time_factor 1: {} (wall time).
+    """
+    global _clock_owner
+    if bringup.real_time_factor == 1.0:
+        return {}
+    if _clock_owner is None or _clock_owner is bringup:
+        _clock_owner = bringup
+        return {'real_time_factor': bringup.real_time_factor}
+    return {'use_sim_time': True}
+
+
+def _release_clock(bringup) -> None:
+    """Let a later bringup own the clock once ``bringup`` stopped."""
+    global _clock_owner
+    if _clock_owner is bringup:
+        _clock_owner = None
+
+
 class InProcessBringup:
     """
     The robot's nodes running in this process.
+
+    With ``real_time_factor`` != 1 the first such bringup's driver owns the clock (it publishes
+    /clock); the drivers of later ones in this process (a second arm) follow that clock
+    (use_sim_time) instead of publishing a second time base on the same topic, so every node
+    sees one simulated time. They run at the owner's speed.
 
     :param robot_model: robot model parameter of every node
     :param robot_name: namespace parameter of every node
@@ -78,11 +111,11 @@ class InProcessBringup:
             self.nodes = list(bringup.create_nodes(viewer=self.viewer, **kwargs))
         else:
             # the driver owns the clock (real_time_factor x wall time, published on /clock);
-            # ik_service and trajectory_server follow it with use_sim_time
+            # ik_service and trajectory_server follow it with use_sim_time; a driver started
+            # while another bringup of this process owns the clock follows it too
             self.nodes = []
             try:
-                classes = [(_node_class('sim_driver'),
-                            {'real_time_factor': self.real_time_factor}),
+                classes = [(_node_class('sim_driver'), _driver_clock(self)),
                            (_node_class('ik_service'), {'use_sim_time': True}),
                            (_node_class('trajectory_server'), {'use_sim_time': True})]
                 if self.viewer:
@@ -94,6 +127,7 @@ class InProcessBringup:
             except BaseException:
                 for node in self.nodes:
                     node.destroy_node()
+                _release_clock(self)
                 raise
         for node in self.nodes:
             for name, value in NODE_PARAMETERS.get(node.get_name(), {}).items():
@@ -106,6 +140,7 @@ class InProcessBringup:
 
     def stop(self) -> None:
         """Stop spinning and destroy the nodes."""
+        _release_clock(self)
         if self.thread is not None:
             self.thread.stop()
         for n in self.nodes:
@@ -148,10 +183,10 @@ class ProcessBringup:
     """
     The robot's nodes as three child processes of this one (``bringup='process'``).
 
-    Same nodes and parameters as :class:`InProcessBringup`, but each in its own Python process
-    (``python -m px100_control.ros.<node>``), so they do not share this process's interpreter
-    lock: more robust on a loaded machine. Output goes to log files (``log_paths``); stop()
-    sends SIGINT and waits.
+    Same nodes, parameters and clock as :class:`InProcessBringup`, but each in its own Python
+    process (``python -m px100_control.ros.<node>``), so they do not share this process's
+    interpreter lock: more robust on a loaded machine. Output goes to log files
+    (``log_paths``); stop() sends SIGINT and waits.
     """
 
     MODULES = (('sim_driver', 'px100_control.ros.sim_driver_node'),
@@ -185,8 +220,8 @@ class ProcessBringup:
         for name, module in self.modules:
             params = dict(common, **NODE_PARAMETERS.get(name, {}))
             if self.real_time_factor != 1.0:
-                params.update({'real_time_factor': self.real_time_factor}
-                              if name == 'sim_driver' else {'use_sim_time': True})
+                params.update(_driver_clock(self) if name == 'sim_driver'
+                              else {'use_sim_time': True})
             args = [sys.executable, '-m', module, '--ros-args']
             if self.robot_name:
                 args += ['-r', f"__ns:=/{self.robot_name.strip('/')}"]
@@ -211,6 +246,7 @@ class ProcessBringup:
 
     def stop(self, timeout: float = 10.0) -> None:
         """SIGINT every process and wait (SIGKILL after timeout)."""
+        _release_clock(self)
         for proc in self.procs:
             if proc.poll() is None:
                 proc.send_signal(signal.SIGINT)
