@@ -1,10 +1,10 @@
 """The parallel run's units (test/tiers.py, test/conftest.py): modules named exist; scopes."""
-import importlib.util
 import os
 import random
 import subprocess
 import sys
 
+from scripts_support import load_script
 import tiers
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -38,11 +38,7 @@ def test_workers_get_a_domain_and_ports_of_their_own():
 
 def _free_domain_module():
     """Import scripts/free_domain.py (a script, not a package module)."""
-    spec = importlib.util.spec_from_file_location(
-        'free_domain', os.path.join(ROOT, 'scripts', 'free_domain.py'))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script('free_domain')
 
 
 def test_free_domain_skips_a_domain_a_real_participant_holds():

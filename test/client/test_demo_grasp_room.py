@@ -7,24 +7,17 @@ along the closing direction. Seed 100's jittered default scene (the perception d
 case) had the open left pad of the red cube's grasp on the green cube's top: the shoulder
 stalled 0.07 rad short at its torque limit and the pick failed.
 """
-import importlib.util
-import os
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from scripts_support import load_script
 
 
 @pytest.fixture(scope='module')
 def demo():
     """Return scripts/pick_and_place_demo.py as a module (its main is not run)."""
-    spec = importlib.util.spec_from_file_location(
-        'pick_and_place_demo', os.path.join(ROOT, 'scripts', 'pick_and_place_demo.py'))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script('pick_and_place_demo')
 
 
 def _cube(x, y, size):

@@ -1,22 +1,16 @@
 """Seed 001's PID experiment (scripts/pid_experiment.py): pattern, settling, plants, reasons."""
 import dataclasses
-import importlib.util
-import os
 
 import pytest
+from scripts_support import load_script
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 #: runs scripts/pid_experiment.py (twelve simulated step responses): not in the quick tier
 pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope='module')
 def experiment():
-    path = os.path.join(ROOT, 'scripts', 'pid_experiment.py')
-    spec = importlib.util.spec_from_file_location('pid_experiment', path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script('pid_experiment')
 
 
 @pytest.fixture(scope='module')
