@@ -42,7 +42,7 @@ def wait_for(predicate, timeout: float, period: float = 0.01) -> bool:
 
 class ServerSide:
     """
-    Whether the process that serves an action has matched a node's action client.
+    Whether the process that serves an action (or a service) has matched a node's clients.
 
     DDS matches endpoints on each side separately: the client's node can see the server (and
     ``server_is_ready``) before the server's process has matched the client's reply readers.
@@ -52,18 +52,30 @@ class ServerSide:
     waits forever for its response. An answer of the server's process to a client created after
     the action client proves that it has matched the action client too
     (:class:`px100_control.ros.writer_match.WriterSideCheck`; a node's endpoints are announced in
-    order). Create it after the action client.
+    order). Create it after the clients; a service reply is lost the same way.
     """
 
-    def __init__(self, node, action_name: str):
+    def __init__(self, node, action_name: str = '', server_node: str = ''):
+        """
+        Follow the server of ``action_name``, or the node ``server_node`` (a service's).
+
+        :param server_node: the serving node's name, in ``node``'s namespace: its process is
+            found from its /rosout publisher
+        """
         from px100_control.ros.writer_match import WriterSideCheck
         self._node = node
-        self._status = node.resolve_topic_name(action_name + '/_action/status')
+        self._status = node.resolve_topic_name(action_name + '/_action/status') \
+            if action_name else ''
+        self._server = (node.get_namespace(), server_node)
         self._check = WriterSideCheck(node)
 
     def matched(self) -> bool:
-        """Return True once every process serving the action has answered (never blocks)."""
-        infos = self._node.get_publishers_info_by_topic(self._status)
+        """Return True once every process serving it has answered (never blocks)."""
+        if self._status:
+            infos = self._node.get_publishers_info_by_topic(self._status)
+        else:
+            infos = [i for i in self._node.get_publishers_info_by_topic('/rosout')
+                     if (i.node_namespace, i.node_name) == self._server]
         return bool(infos) and not self._check.unconfirmed(infos)
 
 
@@ -258,10 +270,13 @@ class IkClient(Node):
         self.ik = self.create_client(ComputeIK, 'compute_ik', qos_profile=SERVICE_QOS)
         self.path = self.create_client(ComputeCartesianPath, 'compute_cartesian_path',
                                        qos_profile=SERVICE_QOS)
+        # after the clients: an answer of ik_service's process covers them (see ServerSide)
+        self.server_side = ServerSide(self, server_node='ik_service')
 
     def ready(self) -> bool:
-        """Return True once both services are there."""
-        return self.ik.service_is_ready() and self.path.service_is_ready()
+        """Return True once both services are there and ik_service's process matched them."""
+        return (self.ik.service_is_ready() and self.path.service_is_ready()
+                and self.server_side.matched())
 
     def request(self, pose, frame_id: str = '', mode: str = '', seed=()):
         """Call compute_ik for a geometry_msgs/Pose; return the call's future."""
