@@ -2,13 +2,13 @@
 The standalone InterbotixGripperXS in its ROS 2 (humble/jazzy) and ROS 1 forms, on real nodes.
 
 The first gripper starts sim_driver, ik_service and trajectory_server in this process
-(``bringup=True``); the others connect to them, constructed with keywords and positionally as
+(``bringup=True``, BOT_SPEED times real time on the driver's clock); the others connect to them, constructed with keywords and positionally as
 Interbotix's signatures allow. Each one closes and opens the simulated gripper.
 """
 import threading
 import time
 
-from client_support import wait_until
+from client_support import BOT_SPEED, wait_until
 import pytest
 
 pytestmark = pytest.mark.ros
@@ -26,7 +26,8 @@ def first():
         robot_model='px100', gripper_name='gripper', robot_name='px100', gripper_pressure=0.5,
         gripper_pressure_lower_limit=150, gripper_pressure_upper_limit=350,
         topic_joint_states='joint_states', logging_level=LoggingSeverity.INFO,
-        node_name='robot_manipulation', start_on_init=True, bringup=True, connect_timeout=30.0)
+        node_name='robot_manipulation', start_on_init=True, bringup=True, connect_timeout=30.0,
+        real_time_factor=BOT_SPEED)
     try:
         yield g
     finally:
