@@ -4,18 +4,17 @@ The viewer in a real browser: headless Chromium (Playwright) on the page of a re
 bringup (sim_driver, ik_service, trajectory_server) and two viewers (one with controls, one
 read-only) run as installed executables over Fast DDS; this process watches the graph with an
 rclpy node and publishes a world as a real MarkerArray. The browser's actions (slider drag,
-gizmo drag) are checked where they must arrive: on joint_states and ee_pose. The simulation runs
-at 3x real time on sim_driver's clock (the nodes and viewers follow it): the tests check what
-happens, not its pacing.
+gizmo drag) are checked where they must arrive: on joint_states and ee_pose. The nodes and
+viewers run on sim_driver's clock (viewer_support.DRIVER_CLOCK).
 """
 import threading
 import time
 
 import numpy as np
 import pytest
-from viewer_support import CANVAS_CLIP, canvas_pixels, colour_pixels, dark_pixels, FAST_SIM, \
-    open_page, pixels, POLL_MS, PORT_BASE, wait_canvas, wait_for, wait_http, wait_page_text, \
-    Watcher
+from viewer_support import CANVAS_CLIP, canvas_pixels, colour_pixels, dark_pixels, \
+    DRIVER_CLOCK, open_page, pixels, POLL_MS, PORT_BASE, wait_canvas, wait_for, wait_http, \
+    wait_page_text, Watcher
 
 PORT, PORT_RO = PORT_BASE + 1, PORT_BASE + 2
 URL, URL_RO = f'http://127.0.0.1:{PORT}', f'http://127.0.0.1:{PORT_RO}'
@@ -29,7 +28,8 @@ def graph(browser, ros_context):
     from px100_control.tools.processes import NodeProcess
     from rclpy.executors import SingleThreadedExecutor
     # no scene in sim_driver: the world on the page is this test's own MarkerArray
-    procs = [NodeProcess('bringup', ['--no-camera', '--ros-args', '-p', "scene:=''"] + FAST_SIM),
+    procs = [NodeProcess('bringup', ['--no-camera', '--ros-args', '-p', "scene:=''",
+                                     *DRIVER_CLOCK]),
              NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT}',
                                     '-p', 'use_sim_time:=true']),
              NodeProcess('viewer', ['--ros-args', '-p', f'port:={PORT_RO}',
