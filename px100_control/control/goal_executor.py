@@ -26,7 +26,9 @@ Goal semantics (docs/ros_interfaces.md states them for clients):
   setpoint and velocity). ``cancel`` decelerates it to rest (``stop_deceleration``), then
   CANCELED.
 - ``tick``: while measurements are older than ``hold_after`` the goal pauses (nothing sent, its
-  clock stopped) and resumes where it paused. During the trajectory, a joint farther than
+  clock stopped) and resumes where it paused. Ticks further apart than ``hold_after`` (the
+  caller was not scheduled: no setpoint went out, the arm held the last one) pause it the same
+  way: it goes on from where it was instead of jumping ahead. During the trajectory, a joint farther than
   ``path_tolerance`` from the setpoints of the ``path_window`` before its measurement's stamp
   ABORTs it (the arm is then held where measured; a joint measured outside its limits at its
   last setpoint). After the trajectory: SUCCEEDED once every joint is within
@@ -107,6 +109,7 @@ class Goal:
     stepped: bool = False                 # linear_max_step: one period per setpoint sent
     ticks: int = 0
     hold_since: Optional[int] = None      # goal clock [ns] when it paused
+    last_tick_ns: Optional[int] = None    # goal clock [ns] of the last tick that ran it
     pauses: list = field(default_factory=list)   # the last pauses: (from, to) [ns] goal clock
     last_q: Optional[np.ndarray] = None
     last_qd: Optional[np.ndarray] = None
@@ -315,6 +318,7 @@ class GoalExecutor:
         q, qd = self.current_setpoint(g)
         g.traj = tj.plan_stop(q, qd, self.settings.stop_deceleration)
         g.t_start = now_ns
+        g.last_tick_ns = None
         g.phase = 'canceling'
         return g
 
@@ -325,6 +329,7 @@ class GoalExecutor:
         g = self.active
         if g is None or not self._hold_for_state(g, now_ns, steady_ns, out):
             return out
+        self._skip_stall(g, now_ns, out)
         t = (now_ns - g.t_start) * 1e-9
         if g.stepped and g.phase == 'executing':
             # one step per setpoint, however late the tick (never a bigger step)
@@ -379,6 +384,28 @@ class GoalExecutor:
         out.finished = (self.active, status, reason)
         self.active = None
 
+    def _skip_stall(self, g: Goal, now_ns: int, out: Outcome) -> None:
+        """
+        Pause the goal's clock over a gap between ticks longer than hold_after.
+
+        The caller was not scheduled (a starved process): no setpoint went out and the driver
+        held the last one, so the trajectory goes on from there rather than from where the gap
+        would put it (a jump, and a tracking error against setpoints never sent). Measurements
+        stamped during the gap are placed before it on the goal's time (``pauses``).
+        """
+        last, g.last_tick_ns = g.last_tick_ns, now_ns
+        if last is None or (g.stepped and g.phase == 'executing'):
+            return           # a first tick, or one step per tick already
+        gap = now_ns - last
+        if gap * 1e-9 <= self.settings.hold_after:
+            return
+        period = int(round(1e9 / self.settings.rate))
+        g.t_start += gap - period
+        g.pauses = g.pauses[-(MAX_PAUSES - 1):] + [(last + period, now_ns)]
+        out.notes.append(('warning', f'goal {g.label}: no tick for {gap * 1e-9:.2f} s (this node '
+                                     'was not scheduled): the trajectory goes on from where it '
+                                     'was'))
+
     def _hold_for_state(self, goal: Goal, now_ns: int, steady_ns: int, out: Outcome) -> bool:
         """
         Return False (send nothing) while measurements are older than hold_after.
@@ -402,6 +429,7 @@ class GoalExecutor:
             goal.t_start += held
             goal.pauses = goal.pauses[-(MAX_PAUSES - 1):] + [(goal.hold_since, now_ns)]
             goal.hold_since = None
+            goal.last_tick_ns = now_ns      # the pause is counted: not a gap between ticks too
             out.notes.append(('info', f'goal {goal.label} resumed after a {held * 1e-9:.2f} s '
                                       'pause'))
         return True

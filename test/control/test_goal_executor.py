@@ -223,6 +223,30 @@ def test_a_sample_stamped_before_a_pause_and_read_after_it_is_no_tracking_error(
     assert status == SUCCEEDED, reason
 
 
+def test_a_server_not_scheduled_goes_on_from_where_it_was():
+    """
+    No tick for 0.5 s (the server's process starved) while the driver held the last setpoint.
+
+    The goal's clock pauses over the gap: the next setpoint follows the last one, no tracking
+    error against setpoints never sent (test_viewer_browser, load ~10: 'tracking error of joint
+    shoulder is 0.6451 rad' with the arm at the setpoint of the stall's start).
+    """
+    rig = Rig(hold_after=0.25, state_timeout=2.0)
+    rig.start(request([(1.5, [1.2])], names=['waist']))     # 1 rad/s after a 0.3 s ramp
+    rig.run(0.5)
+    last = rig.qs()[-1].copy()
+    for _ in range(100):                      # 0.5 s: the driver holds, publishes; no tick
+        rig.now += TICK
+        rig.steady += TICK
+        rig.measure()
+    assert rig.step() is None, rig.notes
+    assert [n for n in rig.notes if 'no tick for 0.51 s' in n[1]], rig.notes
+    assert abs(rig.qs()[-1][0] - last[0]) < 0.01             # on from where it was
+    status, reason, elapsed = rig.run(3.0)
+    assert status == SUCCEEDED, reason
+    assert elapsed >= 1.0 - 0.05                             # the rest of the move, not skipped
+
+
 def test_watchdog_aborts_after_two_stale_checks_on_the_steady_clock():
     """A stopped goal clock (sim time) does not hide a silent driver: steady time decides."""
     rig = Rig(state_timeout=0.5, hold_after=0.25)
