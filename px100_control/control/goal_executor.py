@@ -28,10 +28,10 @@ Goal semantics (docs/ros_interfaces.md states them for clients):
 - ``tick``: while measurements are older than ``hold_after`` the goal pauses (nothing sent, its
   clock stopped) and resumes where it paused. Ticks further apart than ``hold_after`` (the
   caller was not scheduled: no setpoint went out, the arm held the last one) pause it the same
-  way: it goes on from where it was instead of jumping ahead. During the trajectory, a joint farther than
-  ``path_tolerance`` from the setpoints of the ``path_window`` before its measurement's stamp
-  ABORTs it (the arm is then held where measured; a joint measured outside its limits at its
-  last setpoint). After the trajectory: SUCCEEDED once every joint is within
+  way: it goes on from where it was instead of jumping ahead. During the trajectory, a joint
+  farther than ``path_tolerance`` from the setpoints of the ``path_window`` before its
+  measurement's stamp ABORTs it (the arm is then held where measured; a joint measured outside
+  its limits at its last setpoint). After the trajectory: SUCCEEDED once every joint is within
   ``goal_tolerance`` of the end, ABORTED after ``goal_time_tolerance`` more.
 - ``watchdog``: no measurement for ``state_timeout`` on two consecutive checks ABORTs the goal.
 """
