@@ -2,8 +2,9 @@
 The standalone InterbotixGripperXS in its ROS 2 (humble/jazzy) and ROS 1 forms, on real nodes.
 
 The first gripper starts sim_driver, ik_service and trajectory_server in this process
-(``bringup=True``, BOT_SPEED times real time on the driver's clock); the others connect to them, constructed with keywords and positionally as
-Interbotix's signatures allow. Each one closes and opens the simulated gripper.
+(``bringup=True``, BOT_SPEED times real time on the driver's clock); the others connect to
+them, constructed with keywords and positionally as Interbotix's signatures allow. Each one
+closes and opens the simulated gripper.
 """
 import threading
 import time
