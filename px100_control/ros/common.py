@@ -279,25 +279,39 @@ def shutdown_executor(executor) -> None:
 CLOCK_WAIT_S = 3.0
 
 
+#: how many ``wait`` periods a node waits for a /clock publisher the graph already has (one
+#: still starting: a driver loading its model on a loaded machine) before it warns
+CLOCK_SOURCE_PATIENCE = 10
+
+
 def warn_without_clock(node: Node, wait: float = CLOCK_WAIT_S) -> None:
     """
-    Warn once when ``node`` follows ``/clock`` (use_sim_time) and none arrived after ``wait`` s.
+    Warn once when ``node`` follows ``/clock`` (use_sim_time) and none arrived.
 
     Without a /clock publisher a node with use_sim_time sees time 0 forever: its timers on the
     node clock never fire (joint_states stay silent) and nothing says why. The check runs on
-    the steady clock; ``sim_driver`` with ``publish_clock:=true`` is the usual /clock source.
+    the steady clock every ``wait`` s: with no /clock publisher in the graph it warns at once;
+    one that is there but silent (still starting, as when a launch starts every node at once)
+    gets CLOCK_SOURCE_PATIENCE checks. ``sim_driver`` with ``publish_clock:=true`` is the usual
+    /clock source.
     """
     if not (node.has_parameter('use_sim_time') and node.get_parameter('use_sim_time').value):
         return
-    timer = None
+    timer, checks = None, []
 
     def check():
+        if node.get_clock().now().nanoseconds != 0:
+            timer.cancel()
+            return
+        checks.append(1)
+        if node.count_publishers('/clock') > 0 and len(checks) < CLOCK_SOURCE_PATIENCE:
+            return
         timer.cancel()
-        if node.get_clock().now().nanoseconds == 0:
-            node.get_logger().warning(
-                f"use_sim_time is true but no /clock arrived in {wait:g} s: this node's time "
-                'stands still. Start sim_driver with --ros-args -p publish_clock:=true (launch: '
-                'use_sim_time:=true does this) or another /clock source')
+        waited = wait * len(checks)
+        node.get_logger().warning(
+            f"use_sim_time is true but no /clock arrived in {waited:g} s: this node's time "
+            'stands still. Start sim_driver with --ros-args -p publish_clock:=true (launch: '
+            'use_sim_time:=true does this) or another /clock source')
 
     timer = node.create_timer(wait, check, clock=Clock(clock_type=ClockType.STEADY_TIME))
 

@@ -232,6 +232,31 @@ def test_use_sim_time_without_clock_warns(probe):
     assert ik.returncode == 0, ik.output()
 
 
+def test_a_clock_source_still_starting_gets_time_before_a_warning(probe):
+    """
+    A /clock publisher that is there but silent for 4.5 s (a driver still loading): no warning.
+
+    A launch starts every node at once; under load sim_driver's first /clock came more than 3 s
+    after trajectory_server started, which warned that its time stood still (CI, no retries).
+    """
+    from rosgraph_msgs.msg import Clock
+    p = probe('/fh_lateclock')
+    pub = p.node.create_publisher(Clock, '/clock', 10)
+    with NodeProcess('ik_service', ['--ros-args', '-r', '__ns:=/fh_lateclock', '-p',
+                                    'use_sim_time:=true']) as ik:
+        assert ik.wait_for_output('ik_service ready', STARTUP_TIMEOUT), ik.output()
+        deadline = time.monotonic() + 4.5          # past the first check (3 s): silent source
+        wait_for(lambda: time.monotonic() > deadline, 6.0)
+        msg = Clock()
+        msg.clock.sec = 1
+        for _ in range(5):
+            pub.publish(msg)
+        deadline = time.monotonic() + 3.5          # past the second check (6 s)
+        wait_for(lambda: time.monotonic() > deadline, 5.0)
+        assert CLOCK_WARNING not in ik.output(), ik.output()
+    assert ik.returncode == 0, ik.output()
+
+
 def test_use_sim_time_as_launch_wires_it_runs_on_the_drivers_clock(probe):
     """
     The launch files' use_sim_time:=true: the driver publishes /clock, everyone follows it.
