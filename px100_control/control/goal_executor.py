@@ -399,9 +399,7 @@ class GoalExecutor:
         gap = now_ns - last
         if gap * 1e-9 <= self.settings.hold_after:
             return
-        period = int(round(1e9 / self.settings.rate))
-        g.t_start += gap - period
-        g.pauses = g.pauses[-(MAX_PAUSES - 1):] + [(last + period, now_ns)]
+        _pause(g, last + int(round(1e9 / self.settings.rate)), now_ns)
         out.notes.append(('warning', f'goal {g.label}: no tick for {gap * 1e-9:.2f} s (this node '
                                      'was not scheduled): the trajectory goes on from where it '
                                      'was'))
@@ -426,8 +424,7 @@ class GoalExecutor:
             return False
         if goal.hold_since is not None:
             held = now_ns - goal.hold_since
-            goal.t_start += held
-            goal.pauses = goal.pauses[-(MAX_PAUSES - 1):] + [(goal.hold_since, now_ns)]
+            _pause(goal, goal.hold_since, now_ns)
             goal.hold_since = None
             goal.last_tick_ns = now_ns      # the pause is counted: not a gap between ticks too
             out.notes.append(('info', f'goal {goal.label} resumed after a {held * 1e-9:.2f} s '
@@ -498,6 +495,12 @@ class GoalExecutor:
             reason += f'; noticed late: this node was {stall_words}'
         self._finish(out, ABORTED, reason)
         return out
+
+
+def _pause(goal: Goal, begin_ns: int, end_ns: int) -> None:
+    """Stop the goal's clock from begin_ns to end_ns (goal clock [ns]) and keep the pause."""
+    goal.t_start += end_ns - begin_ns
+    goal.pauses = goal.pauses[-(MAX_PAUSES - 1):] + [(begin_ns, end_ns)]
 
 
 def settings_error(name: str, v) -> str:
