@@ -51,7 +51,7 @@ import numpy as np  # noqa: E402, I100
 #: where the default scene's objects go: the resting position of each object's centre [m] in
 #: the base frame (x, y; z = the object's starting height, the table). Other scenes: --targets.
 TARGETS = {
-    'blue_cylinder': (0.10, -0.08),     # across to the other side (moved first)
+    'blue_cylinder': (0.10, -0.08),     # across to the other side, where the red cube was
     'green_cube': (0.11, 0.0),          # nearer the base
     'red_cube': (0.10, 0.08),           # across, over the green cube's new place
 }
