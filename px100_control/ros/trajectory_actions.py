@@ -45,7 +45,6 @@ STATUS = {'SUCCEEDED': GoalStatus.STATUS_SUCCEEDED, 'ABORTED': GoalStatus.STATUS
 PREEMPTED = 'Current goal cancelled due to new incoming action.'
 
 
-
 def _helper_node(server) -> Node:
     """
     Return the ``trajectory_actions`` node, on the server's time (wall, or ``/clock``).
@@ -64,6 +63,7 @@ def _helper_node(server) -> Node:
     if shared:
         source.attach_clock(node.get_clock())
     return node
+
 
 class ActionGoal:
     """The goal executor's tag of an action goal (read like a GoalStatus by the node)."""
