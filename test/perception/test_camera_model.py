@@ -4,7 +4,7 @@ import math
 import numpy as np
 from px100_control.errors import InvalidInputError
 from px100_control.perception.camera import (back_project, camera_error, CameraSpec, checked,
-                                             noisy_depth, transform_points)
+                                             noisy_depth, transform_points, xyzrgb_cloud)
 import pytest
 
 
@@ -47,6 +47,26 @@ def test_back_projection_inverts_the_pinhole_projection():
     assert np.allclose(pu, np.rint(pu)) and (colors == (200, 10, 20)).all()
     with pytest.raises(InvalidInputError, match='64 x 48'):
         back_project(CameraSpec().intrinsics(), depth)
+
+
+def test_packed_cloud_is_the_back_projection_in_pcl_xyzrgb():
+    """xyzrgb_cloud: back_project's points in float32, colours as 0x00RRGGBB, no-returns left."""
+    spec = CameraSpec(width=64, height=48, fovy=math.radians(50))
+    intr = spec.intrinsics()
+    rng = np.random.default_rng(5)
+    depth = rng.uniform(0.3, 2.0, (48, 64)).astype(np.float32)
+    depth[rng.random((48, 64)) < 0.3] = 0.0                   # no return
+    color = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    points, colors = back_project(intr, depth, color)
+    packed = xyzrgb_cloud(intr, depth, color)
+    assert packed.dtype == np.float32 and packed.shape == (len(points), 4)
+    np.testing.assert_allclose(packed[:, :3], points, rtol=0, atol=1e-6)
+    rgb = packed[:, 3].copy().view('<u4')
+    np.testing.assert_array_equal(np.column_stack([rgb >> 16, (rgb >> 8) & 255, rgb & 255]),
+                                  colors)
+    assert (rgb >> 24 == 0).all()
+    with pytest.raises(InvalidInputError, match='64 x 48'):
+        xyzrgb_cloud(CameraSpec().intrinsics(), depth, color)
 
 
 def test_depth_noise_follows_the_stereo_model_and_the_range():
