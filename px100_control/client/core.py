@@ -59,6 +59,7 @@ from px100_control.models.robot_model import RobotModel
 from px100_control.ros.conversions import matrix_to_pose, pose_to_matrix, stamp_id
 from px100_control.ros.peers import (DISCOVERY_BOUND_S, duplicates_message, has_unknown,
                                      live_peers)
+from px100_control.ros.writer_match import WriterSideCheck
 from px100_control_msgs.srv import ComputeCartesianPath, ComputeIK
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
@@ -463,25 +464,63 @@ class InterbotixRobotXSCore:
                            f"'{self.topic('compute_cartesian_path')}'")
         return missing
 
+    def _server_publishers(self) -> list:
+        """
+        Return publishers of the processes that serve this client (TopicEndpointInfo).
+
+        The driver's (joint_states; it serves torque_enable and reset), the trajectory server's
+        (the action's status) and ik_service's (its /rosout).
+        """
+        n = self.robot_node
+        infos = list(n.get_publishers_info_by_topic(
+            n.resolve_topic_name(self.topic(self.topic_joint_states))))
+        infos += n.get_publishers_info_by_topic(
+            n.resolve_topic_name(self.topic(ARM_ACTION) + '/_action/status'))
+        ik = (n.resolve_topic_name(self.topic('compute_ik')).rsplit('/', 1)[0] or '/',
+              'ik_service')
+        infos += [i for i in n.get_publishers_info_by_topic('/rosout')
+                  if (i.node_namespace, i.node_name) == ik]
+        return infos
+
     def _wait_for_peers(self) -> None:
-        """Wait up to connect_timeout for the nodes; raise InterbotixException naming the gaps."""
+        """
+        Wait up to connect_timeout for the nodes; raise InterbotixException naming the gaps.
+
+        Found, the servers' processes must also have matched this client's reply readers (DDS
+        matches each side on its own: a goal or IK reply sent before is lost, and the call
+        waits for nothing): a question to each process, asked after all of this client's
+        endpoints were created, proves it (:class:`WriterSideCheck`). Unconfirmed at the
+        deadline, the client goes on with a warning.
+        """
         start = time.monotonic()
         deadline = start + self.connect_timeout
         next_log = start + 2.0
-        while True:
-            missing = self._missing_peers()
-            if not missing:
-                # the matched publishers above are discovered; give the reverse direction (their
-                # view of our subscriptions) a moment so the first replies are not dropped
-                time.sleep(0.05)
-                return
-            now = time.monotonic()
-            if now >= deadline:
-                break
-            if now >= next_log:
-                self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(missing))
-                next_log = now + 2.0
-            time.sleep(0.02)
+        servers = WriterSideCheck(self.robot_node)
+        try:
+            while True:
+                missing = self._missing_peers()
+                unmatched = servers.unconfirmed(self._server_publishers()) if not missing else []
+                now = time.monotonic()
+                if not missing and (not unmatched or now >= deadline):
+                    if unmatched:
+                        self.get_node().logwarn(
+                            'No answer within the connect timeout from '
+                            f"{', '.join(servers.describe(k) for k in unmatched)}: its process "
+                            'may not have matched this client yet (its first replies may be lost)')
+                    return
+                if now >= deadline:
+                    break
+                if now >= next_log:
+                    self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(
+                        missing or ['their processes to answer (matching this client)']))
+                    next_log = now + 2.0
+                time.sleep(0.02)
+        finally:
+            servers.reset()
+        self._raise_missing(missing)
+
+    def _raise_missing(self, missing: List[str]) -> None:
+        """Raise InterbotixException naming what is missing and how to start it."""
         bringup = _robot.get_bringup(self.robot_name)
         problems = bringup.problems() if hasattr(bringup, 'problems') else ''
         if problems:
