@@ -69,3 +69,37 @@ def test_bad_settings_are_refused(args):
     """Every duration must be positive."""
     with pytest.raises(ValueError, match='must be > 0'):
         QueueDelay(*args)
+
+
+def test_a_floor_set_while_the_clocks_disagreed_is_dropped_once_the_excess_lasts():
+    """
+    First samples 1.95 s in the future (a /clock follower not caught up): not queued for long.
+
+    A bringup following /clock at 3x refused goals as 'joint_states 1.95 s old' for the floor's
+    whole window (CI, dual_arm): the excess lasted, so it is the clocks, not a queue.
+    """
+    q = QueueDelay()
+    t = 0
+    for _ in range(3):                     # the receiver's clock 1.95 s behind the stamps
+        t += 30 * MS
+        q.update(t, -1950 * MS + MS)
+    waited = []
+    for _ in range(40):                    # caught up: 1 ms transport, read at 33 Hz
+        t += 30 * MS
+        waited.append(q.update(t, MS))
+    assert waited[0] >= 1.9 * S            # at first it cannot tell
+    lasting = [i for i, w in enumerate(waited) if w < MS]
+    assert lasting and lasting[0] <= 10, waited    # within 0.3 s of reading
+    assert all(w < MS for w in waited[lasting[0]:]), waited
+
+
+def test_a_stall_read_in_one_burst_is_not_taken_for_a_clock_change():
+    """A 2 s stall's queued samples, read within 5 ms, still show the stall."""
+    q = QueueDelay()
+    t = 0
+    for _ in range(100):
+        t += 10 * MS
+        q.update(t, MS)
+    end = t + 2 * S
+    waited = [q.update(end + i * MS, MS + 2 * S - i * 10 * MS) for i in range(5)]
+    assert all(1.9 * S <= w <= 2.01 * S for w in waited), waited
