@@ -30,7 +30,10 @@ def test_mismatched_publishers_are_matched_before_ready(rclpy_context, spin_node
     odd = node.create_publisher(String, '/px100_ahead/ee_pose', 10)
     time.sleep(0.5)
     bag = str(tmp_path / 'bag')
-    with Recorder(bag, robot_name='px100_ahead', context=rclpy_context, write_tf=False) as rec:
+    # ready when matched, or after ready_timeout regardless: 30 s, not the default 5 s, which
+    # a loaded CI machine used up re-subscribing (ready with both topics unmatched)
+    with Recorder(bag, robot_name='px100_ahead', context=rclpy_context, write_tf=False,
+                  ready_timeout=30.0) as rec:
         assert rec.node.ready.is_set()
         assert rec.node.topics.unmatched() == []
         end = time.monotonic() + 10.0  # and the publishers' side of the match (best effort)

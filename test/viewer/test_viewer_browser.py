@@ -109,6 +109,11 @@ def _wait_sliders(page, positions, timeout: float = 30.0) -> None:
         raise AssertionError(f'the sliders show {values}, not {positions}') from None
 
 
+def _goal_evidence(watcher, procs) -> str:
+    """Return the watcher's evidence and the end of bringup's log (a goal's end reason)."""
+    return f'{watcher.evidence()}\n-- bringup log:\n{procs[0].output()[-3000:]}'
+
+
 def test_read_only_page_has_no_controls(ro_page, graph):
     """
     The read-only viewer shows the arm but no slider, button or gizmo.
@@ -136,7 +141,7 @@ def test_closed_tab_and_dead_viewer_never_stop_the_graph(ro_page, graph):
     procs[2].proc.wait(10)
     assert procs[1].alive()
     key = watcher.send_goal(*HOME, moving_time=3.0)
-    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
+    assert watcher.wait_goal(key) == 'SUCCEEDED', _goal_evidence(watcher, procs)
     t0 = time.monotonic()
     watcher.joints = {}
     assert wait_for(lambda: watcher.position('waist') is not None, 5.0)
@@ -183,11 +188,11 @@ def test_page_connects_and_shows_the_arm_and_world(page, graph):
 
 def test_arm_on_the_page_moves_when_a_goal_executes(page, graph):
     """A goal sent by a script moves the arm drawn on the page (canvas pixels change)."""
-    watcher, _ = graph
+    watcher, procs = graph
     before = canvas_pixels(page)
     key = watcher.send_goal(('waist', 'shoulder', 'elbow', 'wrist_angle'),
                             (0.6, -0.3, 0.3, 0.2), moving_time=1.5)
-    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
+    assert watcher.wait_goal(key) == 'SUCCEEDED', _goal_evidence(watcher, procs)
     wait_page_text(page, 'SUCCEEDED', 45.0)
 
     def moved(img):
@@ -234,10 +239,10 @@ def _blue_arrow_tip(img: np.ndarray):
 
 def test_dragging_the_gizmo_moves_the_arm_through_ik(page, graph):
     """A mouse drag of the gizmo's z arrow calls compute_ik; the arm's end effector rises."""
-    watcher, _ = graph
+    watcher, procs = graph
     # from the sleep pose, where the camera of the page sees the gizmo clear of the panel
     key = watcher.send_goal(HOME[0], SLEEP, moving_time=2.0)
-    assert watcher.wait_goal(key) == 'SUCCEEDED', watcher.evidence()
+    assert watcher.wait_goal(key) == 'SUCCEEDED', _goal_evidence(watcher, procs)
     # the sliders and the gizmo follow the end effector again (one render moves both): the
     # sliders at sleep, then the gizmo's arrow drawn at one place in two pictures
     _wait_sliders(page, SLEEP)
