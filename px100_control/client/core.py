@@ -495,28 +495,27 @@ class InterbotixRobotXSCore:
         start = time.monotonic()
         deadline = start + self.connect_timeout
         next_log = start + 2.0
+        # its question clients stay on the node: destroying entities under rclpy 7.1's
+        # EventsExecutor, which spins this node, fails its spin_once
         servers = WriterSideCheck(self.robot_node)
-        try:
-            while True:
-                missing = self._missing_peers()
-                unmatched = servers.unconfirmed(self._server_publishers()) if not missing else []
-                now = time.monotonic()
-                if not missing and (not unmatched or now >= deadline):
-                    if unmatched:
-                        self.get_node().logwarn(
-                            'No answer within the connect timeout from '
-                            f"{', '.join(servers.describe(k) for k in unmatched)}: its process "
-                            'may not have matched this client yet (its first replies may be lost)')
-                    return
-                if now >= deadline:
-                    break
-                if now >= next_log:
-                    self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(
-                        missing or ['their processes to answer (matching this client)']))
-                    next_log = now + 2.0
-                time.sleep(0.02)
-        finally:
-            servers.reset()
+        while True:
+            missing = self._missing_peers()
+            unmatched = servers.unconfirmed(self._server_publishers()) if not missing else []
+            now = time.monotonic()
+            if not missing and (not unmatched or now >= deadline):
+                if unmatched:
+                    self.get_node().logwarn(
+                        'No answer within the connect timeout from '
+                        f"{', '.join(servers.describe(k) for k in unmatched)}: its process "
+                        'may not have matched this client yet (its first replies may be lost)')
+                return
+            if now >= deadline:
+                break
+            if now >= next_log:
+                self.get_node().logwarn('Waiting for the nodes: ' + '; '.join(
+                    missing or ['their processes to answer (matching this client)']))
+                next_log = now + 2.0
+            time.sleep(0.02)
         self._raise_missing(missing)
 
     def _raise_missing(self, missing: List[str]) -> None:
