@@ -1,8 +1,9 @@
 """
 Ctrl-C in a client script: the goal is canceled, the arm holds, one line, exit 130.
 
-Real processes: a bringup (sim_driver, ik_service, trajectory_server) in its own namespace, the
-script in another process, SIGINT sent to the script mid-move; this test watches joint_states.
+Real processes: a bringup (sim_driver, ik_service, trajectory_server) in its own namespace on the
+driver's clock (/clock at real time), the script in another process, SIGINT sent to the script
+mid-move; this test watches joint_states and measures on the driver's clock.
 """
 import os
 import signal
@@ -23,9 +24,11 @@ class _Watcher:
     """
     Record (stamp [s], waist position [rad]) from joint_states.
 
-    The driver's stamps (the bringup follows the wall clock) and not the arrival times: on a
-    loaded machine this process reads its queue late, and late arrivals looked like motion
-    after the arm had stopped (a CI run measured 'still moving 0.603 s after SIGINT').
+    The driver's stamps (simulated time, /clock) and not the arrival times: on a loaded machine
+    this process reads its queue late, and late arrivals looked like motion after the arm had
+    stopped (a CI run measured 'still moving 0.603 s after SIGINT'). Nor wall-clock stamps: a
+    driver that stalls 0.32 s catches up afterwards, which on the wall clock looked like motion
+    0.301 s after the signal; on its own clock a stalled driver stalls the arm's time too.
     """
 
     def __init__(self, node, ns):
@@ -58,9 +61,12 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
                                                     tmp_path, with_recorder):
     """SIGINT mid-move: arm at rest within 0.2 s, short of the goal; one line; exit 130."""
     from rclpy.node import Node
+    from rclpy.parameter import Parameter
     ns = f'px100_int_{os.getpid()}_{int(with_recorder)}'
-    node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}')
-    node = spin_node(Node('interrupt_watcher', context=rclpy_context))
+    node_process('bringup', '--no-camera', '--ros-args', '-p', f'robot_name:={ns}',
+                 '-p', 'use_sim_time:=true', '-p', 'publish_clock:=true')
+    node = spin_node(Node('interrupt_watcher', context=rclpy_context, parameter_overrides=[
+        Parameter('use_sim_time', value=True)]))
     watcher = _Watcher(node, ns)
     bag = str(tmp_path / 'bag') if with_recorder else ''
     proc = subprocess.Popen([sys.executable, os.path.join(HERE, 'interrupt_script.py'), ns,
@@ -83,15 +89,21 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
                 f'the waist never reached 0.5 rad: {watcher.after(0.0)[-3:]}'
             time.sleep(0.01)
         print(f'waist at 0.5 rad {time.monotonic() - moving:.2f} s after MOVING')
-        t_sig = time.time()  # the clock of the driver's stamps
+        # the driver's clock (this node's /clock), at least the newest stamp read
+        t_sig = max(node.get_clock().now().nanoseconds * 1e-9, watcher.after(0.0)[-1][0])
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=30.0)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    time.sleep(1.0)
+    # one simulated second of samples after the signal
+    deadline = time.monotonic() + 30.0
+    while not watcher.after(t_sig + 1.0) and time.monotonic() < deadline:
+        time.sleep(0.01)
     samples = watcher.after(t_sig - 0.5)
+    assert samples and samples[-1][0] >= t_sig + 1.0, \
+        f'no joint_states 1 s (driver clock) after the signal: {samples[-3:]}'
     assert proc.returncode == 130, \
         f'exit {proc.returncode}; stdout: {out[-1500:]}\nstderr: {err[-3000:]}'
     assert 'Traceback' not in err and 'Traceback' not in out, err[-3000:]
