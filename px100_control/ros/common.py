@@ -283,6 +283,10 @@ CLOCK_WAIT_S = 3.0
 #: still starting: a driver loading its model on a loaded machine) before it warns
 CLOCK_SOURCE_PATIENCE = 10
 
+#: how many ``wait`` periods a node waits when it sees no /clock publisher at all: discovery
+#: of a running one took more than 3 s on a loaded machine (CI, load 7 on 2 cores)
+CLOCK_DISCOVERY_PATIENCE = 2
+
 
 def warn_without_clock(node: Node, wait: float = CLOCK_WAIT_S) -> None:
     """
@@ -290,10 +294,10 @@ def warn_without_clock(node: Node, wait: float = CLOCK_WAIT_S) -> None:
 
     Without a /clock publisher a node with use_sim_time sees time 0 forever: its timers on the
     node clock never fire (joint_states stay silent) and nothing says why. The check runs on
-    the steady clock every ``wait`` s: with no /clock publisher in the graph it warns at once;
-    one that is there but silent (still starting, as when a launch starts every node at once)
-    gets CLOCK_SOURCE_PATIENCE checks. ``sim_driver`` with ``publish_clock:=true`` is the usual
-    /clock source.
+    the steady clock every ``wait`` s: with no /clock publisher in the graph it warns after
+    CLOCK_DISCOVERY_PATIENCE checks (discovery takes time); one that is there but silent (still
+    starting, as when a launch starts every node at once) gets CLOCK_SOURCE_PATIENCE checks.
+    ``sim_driver`` with ``publish_clock:=true`` is the usual /clock source.
     """
     if not (node.has_parameter('use_sim_time') and node.get_parameter('use_sim_time').value):
         return
@@ -304,7 +308,9 @@ def warn_without_clock(node: Node, wait: float = CLOCK_WAIT_S) -> None:
             timer.cancel()
             return
         checks.append(1)
-        if node.count_publishers('/clock') > 0 and len(checks) < CLOCK_SOURCE_PATIENCE:
+        patience = (CLOCK_SOURCE_PATIENCE if node.count_publishers('/clock') > 0
+                    else CLOCK_DISCOVERY_PATIENCE)
+        if len(checks) < patience:
             return
         timer.cancel()
         waited = wait * len(checks)
