@@ -239,6 +239,22 @@ def _signal_schedule(procs, rng):
             proc.send_signal(sig)
 
 
+def _stacks_then_kill(proc) -> str:
+    """
+    Stop a process that hung on its stop signal; return how it ended.
+
+    SIGABRT first: with PYTHONFAULTHANDLER (as _start sets it) the process prints every
+    thread's stack into its log, the evidence of where it hung (a CI run: one ik_service of
+    the single-threaded rotation ignored SIGTERM for 30 s, its log ending at 'ready').
+    """
+    proc.send_signal(signal.SIGABRT)
+    try:
+        return f'hung, SIGABRT for its stacks, exit {proc.wait(5.0)}'
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return f'hung, SIGABRT then killed, exit {proc.wait(10.0)}'
+
+
 #: executables left out of some executors' rounds, where they would run as in another round:
 #: ``viewer --bag`` has no ROS node; camera spins single-threaded under multi (one GL thread)
 SAME_AS_IN = {'viewer --bag': ('single', 'multi'), 'camera': ('multi',)}
@@ -271,8 +287,7 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
         try:
             rc = proc.wait(30.0)
         except subprocess.TimeoutExpired:
-            proc.kill()
-            rc = f'hung (killed), exit {proc.wait(10.0)}'
+            rc = _stacks_then_kill(proc)
         log.seek(0)
         out = log.read().decode('utf-8', 'replace')
         log.close()
@@ -289,7 +304,8 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
             if reason:
                 problems.append('bag not closed: ' + reason)
         results[name, its_way] = (rc, '; '.join(problems)
-                                  + ('\n' + out[-1500:] if problems else ''))
+                                  + ('\n' + out[-(6000 if isinstance(rc, str) else 1500):]
+                                     if problems else ''))
     return results
 
 
@@ -425,8 +441,7 @@ def _move_round(graph, rng, tmp, index):
         try:
             rc = proc.wait(30.0)
         except subprocess.TimeoutExpired:
-            proc.kill()
-            rc = f'hung (killed), exit {proc.wait(10.0)}'
+            rc = _stacks_then_kill(proc)
         log.seek(0)
         out = log.read().decode('utf-8', 'replace')
         log.close()
@@ -489,8 +504,7 @@ def test_trajectory_server_stops_cleanly_while_streaming(graph, tmp_path):
             try:
                 rc = proc.wait(30.0)
             except subprocess.TimeoutExpired:
-                proc.kill()
-                rc = f'hung (killed), exit {proc.wait(10.0)}'
+                rc = _stacks_then_kill(proc)
             log.seek(0)
             out = log.read().decode('utf-8', 'replace')
             log.close()
