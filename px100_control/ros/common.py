@@ -11,11 +11,13 @@ prefixes the tf frames (``<robot_name>/base_link``); ``robot_name:=''`` with no 
 the node in ``/`` with unprefixed frames.
 """
 import argparse
+import contextlib
+import itertools
 import os
 import re
 import signal
 import sys
-from typing import List, Optional, Sequence
+from typing import Iterator, List, Optional, Sequence
 
 from px100_control.errors import Px100Error
 from px100_control.models.registry import load_robot
@@ -29,8 +31,10 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.executors import ExternalShutdownException
 import rclpy.logging
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.type_description_service import START_TYPE_DESCRIPTION_SERVICE_PARAM
 from rclpy.utilities import remove_ros_args
 
 try:
@@ -54,36 +58,66 @@ def _override(parameter_overrides, name: str):
     return None
 
 
-def robot_node_kwargs(node_name: str, node_kwargs: dict) -> dict:
-    """
-    Return ``node_kwargs`` for ``Node.__init__`` with the robot namespace as the default.
+#: the hidden node that keeps a context's DDS participant while robot_node_placement's probe
+#: is replaced by the node it placed (a leading underscore hides it from ``ros2 node list``)
+PLACEMENT_ANCHOR = '_px100_placement'
+_ANCHORS = itertools.count()
 
-    A ``namespace`` given by the caller is kept; otherwise the namespace is ``/<robot_name>``,
-    robot_name taken from ``parameter_overrides``, else from the command line and params files
-    as the node will see them (read through a short-lived probe node of the same name, without
-    parameter services or rosout), else ``px100``. A ``__ns`` remap wins over all of this (rcl
-    applies it over the namespace argument).
+
+@contextlib.contextmanager
+def robot_node_placement(node_name: str, node_kwargs: dict) -> Iterator[dict]:
+    """
+    Yield ``node_kwargs`` for ``Node.__init__`` with the robot namespace as the default.
+
+    Use as ``with robot_node_placement(NAME, kwargs) as placed: super().__init__(NAME,
+    **placed)``. A ``namespace`` given by the caller is kept; otherwise the namespace is
+    ``/<robot_name>``, robot_name taken from ``parameter_overrides``, else from the command line
+    and params files as the node will see them (read through a short-lived probe node of the
+    same name, without parameter services or rosout), else ``px100``. A ``__ns`` remap wins over
+    all of this (rcl applies it over the namespace argument).
+
+    While the probe is replaced by the node, a hidden anchor node (PLACEMENT_ANCHOR, its own
+    name, no global arguments) keeps the context's DDS participant: rmw_fastrtps destroys it
+    with a context's last node, so destroying a first node's probe destroyed the participant
+    and the node built a new one. Fast DDS 2.14 (the Jazzy wheels) can deadlock destroying a
+    participant while one of its discovery callbacks runs: a node process hung at start-up in
+    the probe's destroy_node (seen in the suite; reproduced by hand: 3 hangs in about 1,700
+    participant destructions, six processes at a time). The probe itself cannot stay: it has
+    the node's name, so with a ``__ns`` remap both would be one node in the graph.
     """
     kwargs = dict(node_kwargs)
     if kwargs.get('namespace'):
-        return kwargs
+        yield kwargs
+        return
     name = _override(kwargs.get('parameter_overrides'), 'robot_name')
-    if name is None:
-        probe = Node(node_name, context=kwargs.get('context'), cli_args=kwargs.get('cli_args'),
+    if name is not None:
+        name = str(name).strip('/')
+        kwargs['namespace'] = f'/{name}' if name else ''
+        yield kwargs
+        return
+    context = kwargs.get('context')
+    anchor = Node(f'{PLACEMENT_ANCHOR}_{next(_ANCHORS)}', context=context,
+                  use_global_arguments=False, enable_rosout=False, start_parameter_services=False,
+                  parameter_overrides=[Parameter(START_TYPE_DESCRIPTION_SERVICE_PARAM,
+                                                 value=False)])
+    try:
+        probe = Node(node_name, context=context, cli_args=kwargs.get('cli_args'),
                      use_global_arguments=kwargs.get('use_global_arguments', True),
                      enable_rosout=False, start_parameter_services=False,
                      allow_undeclared_parameters=True,
                      automatically_declare_parameters_from_overrides=True)
         try:
-            if probe.get_namespace() != '/':    # a __ns remap: it places the node
-                return kwargs
+            remapped = probe.get_namespace() != '/'     # a __ns remap places the node
             if probe.has_parameter('robot_name'):
                 name = probe.get_parameter('robot_name').value
         finally:
             probe.destroy_node()
-    name = DEFAULT_ROBOT_NAME if name is None else str(name).strip('/')
-    kwargs['namespace'] = f'/{name}' if name else ''
-    return kwargs
+        if not remapped:
+            name = DEFAULT_ROBOT_NAME if name is None else str(name).strip('/')
+            kwargs['namespace'] = f'/{name}' if name else ''
+        yield kwargs
+    finally:
+        anchor.destroy_node()
 
 
 def declare_robot_parameters(node: Node) -> RobotModel:

@@ -30,7 +30,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from px100_control.parameters import VIEWER
 from px100_control.ros.common import (declare_robot_parameters, frame_id,
                                       ignore_further_interrupts, install_stop_signals,
-                                      LATCHED_QOS, parse_cli, robot_name, robot_node_kwargs,
+                                      LATCHED_QOS, parse_cli, robot_name, robot_node_placement,
                                       robot_topic, spin_node, stop_requested)
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.viewer_calls import ViewerCalls
@@ -54,7 +54,8 @@ class ViewerNode(Node):
 
     def __init__(self, **kwargs):
         self.guard = Guard(self._report_fault)      # before any callback is registered
-        super().__init__('viewer', **robot_node_kwargs('viewer', kwargs))
+        with robot_node_placement('viewer', kwargs) as placed:
+            super().__init__('viewer', **placed)
         self.model = declare_robot_parameters(self)
         declare_schema(self, VIEWER)
         value = self.get_parameter

@@ -115,6 +115,36 @@ def test_robot_name_places_a_node_started_without_namespace(probe, processes):
     proc.stop()
 
 
+def test_placement_keeps_the_dds_participant_while_the_probe_gives_way_to_the_node(ros_ctx):
+    """
+    A hidden anchor node keeps the context's nodes above zero while the probe makes way.
+
+    robot_node_placement reads robot_name through a probe node of the node's own name; the
+    anchor lives from before the probe until the node exists, so rmw_fastrtps never destroys
+    the context's DDS participant (Fast DDS 2.14 can deadlock there), and the probe is gone
+    before the node comes (with a ``__ns`` remap both would be one node). After the block only
+    the node is left.
+    """
+    from px100_control.ros.common import PLACEMENT_ANCHOR, robot_node_placement
+    from rclpy.node import Node
+    for args, ns in ((['-p', 'robot_name:=arm9'], '/arm9'), (['-r', '__ns:=/arm8'], '/arm8')):
+        cli = ['--ros-args', *args]
+        with robot_node_placement('placed', {'context': ros_ctx, 'cli_args': cli}) as kw:
+            node = Node('placed', context=ros_ctx, cli_args=cli,
+                        **{k: v for k, v in kw.items() if k not in ('context', 'cli_args')})
+            during = set(node.get_node_names_and_namespaces())
+        try:
+            after = set(node.get_node_names_and_namespaces())
+            assert node.get_namespace() == ns
+            anchors = {n for n, _ in during if n.startswith(PLACEMENT_ANCHOR)}
+            assert anchors and ('placed', '/') not in during, during
+            assert [n for n, _ in during if n == 'placed'] == ['placed'], during
+            assert not {n for n, _ in after if n.startswith(PLACEMENT_ANCHOR)}, after
+            assert ('placed', ns) in after, after
+        finally:
+            node.destroy_node()
+
+
 def test_ns_and_relative_remap_move_every_name(probe, processes):
     """-r __ns:=/other -r joint_states:=js moves topics, services, parameters; frames follow."""
     from geometry_msgs.msg import PoseStamped
