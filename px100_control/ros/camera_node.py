@@ -36,8 +36,8 @@ from px100_control.perception.camera import (camera_error, CameraSpec, noisy_dep
                                              view_error, xyzrgb_cloud)
 from px100_control.ros.camera_msgs import (camera_info_msg, image_msg, packed_cloud_msg,
                                            static_tf)
-from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
-                                      robot_name, robot_node_placement, robot_topic, shutting_down,
+from px100_control.ros.common import (declare_robot_parameters, frame_id, init_robot_node,
+                                      LATCHED_QOS, robot_name, robot_topic, shutting_down,
                                       spin_node)
 from px100_control.ros.parameter_schema import declare_schema, parameter_descriptor
 from px100_control.ros.state_publisher_node import TF_STATIC_QOS
@@ -88,8 +88,7 @@ class CameraNode(Node):
     """Render the robot's world from a fixed camera and publish it as a RealSense driver."""
 
     def __init__(self, **node_kwargs):
-        with robot_node_placement(NODE_NAME, node_kwargs) as placed:
-            super().__init__(NODE_NAME, **placed)
+        init_robot_node(self, NODE_NAME, node_kwargs)
         self.robot = declare_robot_parameters(self)
         scene = self.declare_parameter('scene', CAMERA['scene'].default,
                                        parameter_descriptor(CAMERA['scene'])).value

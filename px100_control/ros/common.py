@@ -120,6 +120,12 @@ def robot_node_placement(node_name: str, node_kwargs: dict) -> Iterator[dict]:
         anchor.destroy_node()
 
 
+def init_robot_node(node: Node, node_name: str, node_kwargs: dict) -> None:
+    """Run ``Node.__init__`` of ``node`` (a Node subclass), placed by robot_node_placement."""
+    with robot_node_placement(node_name, node_kwargs) as placed:
+        Node.__init__(node, node_name, **placed)
+
+
 def declare_robot_parameters(node: Node) -> RobotModel:
     """Declare robot_model/robot_name (default: the namespace) and return the RobotModel."""
     robot_model, name = COMMON

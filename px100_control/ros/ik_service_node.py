@@ -25,7 +25,7 @@ import numpy as np
 from px100_control.control.ik_requests import MODES, parameter_error
 from px100_control.errors import InvalidInputError
 from px100_control.parameters import IK_SERVICE
-from px100_control.ros.common import (declare_robot_parameters, frame_id, robot_node_placement,
+from px100_control.ros.common import (declare_robot_parameters, frame_id, init_robot_node,
                                       robot_topic, spin_node)
 from px100_control.ros.conversions import pose_values_to_matrix
 from px100_control.ros.ik_services import IkServices
@@ -44,8 +44,7 @@ class IkServiceNode(Node):
     """Serve compute_ik and compute_cartesian_path with the IK of the robot model."""
 
     def __init__(self, **node_kwargs):
-        with robot_node_placement(NODE_NAME, node_kwargs) as placed:
-            super().__init__(NODE_NAME, **placed)
+        init_robot_node(self, NODE_NAME, node_kwargs)
         self.model = declare_robot_parameters(self)
         declare_schema(self, IK_SERVICE,
                        defaults={'nominal_pose': [float(x) for x in self.model.home]})

@@ -55,7 +55,7 @@ from px100_control.parameters import COMMON, RECORDER
 from px100_control.ros import cdr, recorder_registry
 from px100_control.ros.bag_qos import SUBSCRIPTION_DEPTH
 from px100_control.ros.bag_tool import run_bag_tool
-from px100_control.ros.common import LATCHED_QOS, parse_cli, robot_name, robot_node_placement
+from px100_control.ros.common import init_robot_node, LATCHED_QOS, parse_cli, robot_name
 from px100_control.ros.message_types import joint_positions, string_data, world_markers
 from px100_control.ros.parameter_schema import parameter_descriptor
 from px100_control.ros.recorder_topics import RecorderTopics, take_next
@@ -110,8 +110,7 @@ class RecorderNode(Node):
                  write_tf: bool = True, tf_rate: float = 50.0, write_description: bool = True,
                  compression: str = 'zstd', flush_period: float = 1.0,
                  rescan_period: float = 0.5, ready_timeout: float = 5.0, **node_kwargs):
-        with robot_node_placement('recorder', node_kwargs) as placed:
-            super().__init__('recorder', **placed)
+        init_robot_node(self, 'recorder', node_kwargs)
         # the robot_model/robot_name parameters of declare_robot_parameters(), but the model
         # (URDF parsing, slow to import) is loaded in the background: recording starts at once
         model_name = str(self.declare_parameter(

@@ -42,7 +42,7 @@ from px100_control.models.registry import read_robot_file
 from px100_control.parameters import COMMON, REPLAYER
 from px100_control.ros.bag_qos import publisher_qos
 from px100_control.ros.bag_tool import run_bag_tool
-from px100_control.ros.common import parse_cli, robot_node_placement
+from px100_control.ros.common import init_robot_node, parse_cli
 from px100_control.ros.message_types import message_class
 from px100_control.ros.parameter_schema import parameter_descriptor
 from px100_control.ros.replay_guard import CommandGuard
@@ -78,8 +78,7 @@ class ReplayerNode(Node):
                  start_offset: float = 0.0, delay: float = 0.0,
                  wait_for_subscribers: float = 0.0, min_subscribers: int = 1,
                  progress: bool = True, send_commands: bool = False, **node_kwargs):
-        with robot_node_placement('replayer', node_kwargs) as placed:
-            super().__init__('replayer', **placed)
+        init_robot_node(self, 'replayer', node_kwargs)
         # the robot_model/robot_name parameters of every node (the model itself is not needed)
         read_robot_file(str(self.declare_parameter(
             'robot_model', 'px100', parameter_descriptor(COMMON[0])).value))

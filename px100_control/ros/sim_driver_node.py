@@ -55,8 +55,8 @@ from geometry_msgs.msg import PoseStamped
 from px100_control.errors import Px100Error
 from px100_control.models.urdf_prefix import prefix_urdf
 from px100_control.parameters import SIM_DRIVER
-from px100_control.ros.common import (declare_robot_parameters, frame_id, LATCHED_QOS,
-                                      robot_name, robot_node_placement, robot_topic, spin_node)
+from px100_control.ros.common import (declare_robot_parameters, frame_id, init_robot_node,
+                                      LATCHED_QOS, robot_name, robot_topic, spin_node)
 from px100_control.ros.conversions import time_from_ns
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.peers import new_duplicates
@@ -88,8 +88,7 @@ class SimDriverNode(Node):
     """The simulated PX100 driver node ('sim_driver'); kwargs go to rclpy Node."""
 
     def __init__(self, **node_kwargs):
-        with robot_node_placement('sim_driver', node_kwargs) as placed:
-            super().__init__('sim_driver', **placed)
+        init_robot_node(self, 'sim_driver', node_kwargs)
         self.model = declare_robot_parameters(self)
         declare_schema(self, SIM_DRIVER)
         p = {name: self.get_parameter(name).value for name in CORE_PARAMS}

@@ -27,8 +27,8 @@ from px100_control.bag.tf_live import LiveTf
 from px100_control.bag.world import markers_from_decoded
 from px100_control.errors import InvalidInputError
 from px100_control.parameters import STATE_PUBLISHER
-from px100_control.ros.common import LATCHED_QOS, robot_name, robot_node_placement, robot_topic, \
-    spin_node
+from px100_control.ros.common import (init_robot_node, LATCHED_QOS, robot_name, robot_topic,
+                                      spin_node)
 from px100_control.ros.parameter_schema import declare_schema
 from rclpy.node import Node
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, qos_profile_sensor_data, QoSProfile,
@@ -70,8 +70,7 @@ class StatePublisherNode(Node):
     """Publish /tf and /tf_static from robot_description, joint_states and world/markers."""
 
     def __init__(self, **node_kwargs):
-        with robot_node_placement(NODE_NAME, node_kwargs) as placed:
-            super().__init__(NODE_NAME, **placed)
+        init_robot_node(self, NODE_NAME, node_kwargs)
         declare_schema(self, STATE_PUBLISHER, skip=(),
                        defaults={'robot_name': self.get_namespace().strip('/')})
         self._tf = LiveTf(robot_name(self))

@@ -23,7 +23,7 @@ from px100_control.control.goal_executor import Goal, GoalExecutor, Outcome, Set
 from px100_control.control.goal_executor import settings_error
 from px100_control.errors import InvalidInputError
 from px100_control.parameters import TRAJECTORY_SERVER
-from px100_control.ros.common import (declare_robot_parameters, robot_name, robot_node_placement,
+from px100_control.ros.common import (declare_robot_parameters, init_robot_node, robot_name,
                                       robot_topic, spin_node)
 from px100_control.ros.goal_status import DIAG_LEVEL, diagnostic, STATUS_CODES, STATUS_NAMES
 from px100_control.ros.parameter_schema import declare_schema
@@ -52,8 +52,7 @@ class TrajectoryServerNode(Node):
     """Execute the actions' joint trajectories: setpoints, feedback, diagnostics."""
 
     def __init__(self, **node_kwargs):
-        with robot_node_placement(NODE_NAME, node_kwargs) as placed:
-            super().__init__(NODE_NAME, **placed)
+        init_robot_node(self, NODE_NAME, node_kwargs)
         self.model = declare_robot_parameters(self)
         declare_schema(self, TRAJECTORY_SERVER)
         self.add_on_set_parameters_callback(self._check_parameters)

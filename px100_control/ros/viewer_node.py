@@ -29,8 +29,8 @@ import time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from px100_control.parameters import VIEWER
 from px100_control.ros.common import (declare_robot_parameters, frame_id,
-                                      ignore_further_interrupts, install_stop_signals,
-                                      LATCHED_QOS, parse_cli, robot_name, robot_node_placement,
+                                      ignore_further_interrupts, init_robot_node,
+                                      install_stop_signals, LATCHED_QOS, parse_cli, robot_name,
                                       robot_topic, spin_node, stop_requested)
 from px100_control.ros.parameter_schema import declare_schema
 from px100_control.ros.viewer_calls import ViewerCalls
@@ -54,8 +54,7 @@ class ViewerNode(Node):
 
     def __init__(self, **kwargs):
         self.guard = Guard(self._report_fault)      # before any callback is registered
-        with robot_node_placement('viewer', kwargs) as placed:
-            super().__init__('viewer', **placed)
+        init_robot_node(self, 'viewer', kwargs)
         self.model = declare_robot_parameters(self)
         declare_schema(self, VIEWER)
         value = self.get_parameter
