@@ -70,7 +70,10 @@ class _GoalListener:
 
 def test_waypoints_are_followed_on_straight_lines(bot, spin_node, rclpy_context):
     """
-    The measured end effector stays near the straight segments and ends on the last pose.
+    The commanded points lie on the straight segments; the measured end effector follows them.
+
+    A joint-space move between the same corners would leave them by 19 mm. The arm ends on the
+    last pose.
 
     The goal sent to the trajectory action (heard on its send_goal service events by a node
     of the test) has no joint step above max_joint_step, from the joint commands before the
@@ -100,10 +103,15 @@ def test_waypoints_are_followed_on_straight_lines(bot, spin_node, rclpy_context)
     np.testing.assert_allclose(Q[-1], bot.arm.get_joint_commands(), atol=1e-12)
     assert _settled_error(bot, poses[-1][:3, 3]) < 1e-3
     corners = np.vstack([start] + [T[:3, 3] for T in poses])
+    commanded = np.array([bot.arm.model.fk(q)[:3, 3] for q in Q])
+    off = _off_polyline(commanded, corners)
+    assert off < 2e-4, f'the commanded points left the segments by {off * 1000:.2f} mm'
+    # measured: the PID lags the streamed setpoints, more under load (about 2 mm beside three
+    # busy loops, up to 5 mm in loaded CI runs)
     P = sampler.array()
     assert len(P) > 30
     off = _off_polyline(P, corners)
-    assert off < 4e-3, f'the end effector left the segments by {off * 1000:.1f} mm'
+    assert off < 8e-3, f'the end effector left the segments by {off * 1000:.1f} mm'
     np.testing.assert_allclose(bot.arm.get_ee_pose_command(), poses[-1], atol=1e-9)
     assert bot.arm.model.fk(bot.arm.get_joint_commands())[:3, 3] == pytest.approx(
         poses[-1][:3, 3], abs=1e-5)
