@@ -30,7 +30,7 @@ def fresh_ee(bot) -> np.ndarray:
     return measured_ee(bot)
 
 
-def settled_ee_error(bot, target, tol: float = 1e-3, timeout: float = 0.5) -> float:
+def settled_ee_error(bot, target, tol: float = 1e-3, timeout: float = 2.0) -> float:
     """
     Return |measured ee_pose - target| [m] once below tol, or after timeout simulated seconds.
 
@@ -89,8 +89,9 @@ def test_non_blocking_returns_at_once(bot):
     bot.arm.go_to_home_pose()
     target = [-0.5, 0.1, 0.2, 0.3]
     t0 = time.monotonic()
-    assert bot.arm.set_joint_positions(target, moving_time=0.8, blocking=False) is True
-    assert time.monotonic() - t0 < 0.3
+    # a move long enough that a starved test still sees it EXECUTING (1 s wall at BOT_SPEED)
+    assert bot.arm.set_joint_positions(target, moving_time=3.0, blocking=False) is True
+    assert time.monotonic() - t0 < 0.9 * wall(3.0)    # a blocking call takes wall(3.0) at least
     assert bot.arm.get_joint_commands() == target
     np.testing.assert_allclose(bot.arm.get_ee_pose_command(), bot.core.model.fk(target))
     assert np.max(np.abs(np.array(bot.arm.get_joint_positions()) - target)) > 0.3
@@ -247,7 +248,7 @@ def test_unreachable_targets_fail_cleanly(bot):
     assert ok is False
     theta, ok = bot.arm.set_ee_pose_matrix(np.full((4, 4), np.nan))
     assert ok is False
-    assert time.monotonic() - t0 < 3.0  # wall: IK answers do not depend on sim time
+    assert time.monotonic() - t0 < 10.0  # a hang (wall: IK answers do not wait on sim time)
     assert bot.arm.get_joint_commands() == [0.0] * 4
 
 
@@ -255,7 +256,7 @@ def test_cartesian_trajectory_is_a_straight_line(bot):
     """set_ee_cartesian_trajectory moves the EE along a line (measured) and blocks."""
     _, ok = bot.arm.set_ee_pose_components(x=0.18, z=0.12, pitch=0.3, moving_time=1.2)
     assert ok
-    start = fresh_ee(bot)
+    start = bot.arm.get_ee_pose_command()[:3, 3].copy()   # the line starts at the command
     with EeSampler(bot) as sampler:
         t0 = time.monotonic()
         assert bot.arm.set_ee_cartesian_trajectory(x=0.05, z=-0.06, moving_time=1.0) is True
@@ -268,7 +269,8 @@ def test_cartesian_trajectory_is_a_straight_line(bot):
     d = (end - start) / np.linalg.norm(end - start)
     rel = P - start
     off_line = np.linalg.norm(rel - np.outer(rel @ d, d), axis=1)
-    assert off_line.max() < 3e-3, f'path leaves the line by {off_line.max() * 1000:.2f} mm'
+    # servo lag, more under load; a joint-space move between the same poses: 8 mm
+    assert off_line.max() < 5e-3, f'path leaves the line by {off_line.max() * 1000:.2f} mm'
     # the commanded pose follows: pitch kept, position moved
     np.testing.assert_allclose(bot.arm.get_ee_pose_command()[:3, 3], end, atol=1e-3)
     assert bot.arm.moving_time == 1.0
@@ -304,15 +306,16 @@ def test_velocities_and_efforts_exist(bot):
     assert len(efforts) == 4 and all(math.isfinite(e) for e in efforts)
     # the stretched-out arm holds its own weight: the shoulder pushes against gravity
     assert abs(efforts[1]) > 0.05
-    assert bot.arm.set_joint_positions([1.0, 0, 0, 0], moving_time=1.0, accel_time=0.2,
+    assert bot.arm.set_joint_positions([2.0, 0, 0, 0], moving_time=1.6, accel_time=0.2,
                                        blocking=False)
     waist_speeds = []
     while bot.arm.last_goal_status() in ('NONE', 'ACCEPTED', 'EXECUTING'):
         waist_speeds.append(bot.arm.get_joint_velocities()[0])
         time.sleep(0.01)
     assert bot.arm.wait_for_last_goal()
-    # the trapezoid cruises at 1.0 / (1.0 - 0.2) = 1.25 rad/s (measured: more when the
-    # simulation catches up after lagging on a loaded machine, never above the pi limit)
+    # the trapezoid cruises at 2.0 / (1.6 - 0.2) = 1.43 rad/s for 1.2 s (0.4 s wall: a starved
+    # poller still samples it; measured: more when the simulation catches up after lagging on
+    # a loaded machine, never above the pi limit)
     assert waist_speeds and 1.0 <= max(waist_speeds) <= math.pi + 0.3, waist_speeds
     # SUCCEEDED comes once within goal_tolerance; the PID loop may still be settling then
     assert wait_until(lambda: np.max(np.abs(bot.arm.get_joint_velocities())) < 0.05, 1.0), \

@@ -25,13 +25,13 @@ def _off_polyline(P, corners):
 
 
 def _settled_error(bot, target, tol=1e-3) -> float:
-    """Return |measured ee - target| [m] once below tol, or after 0.5 simulated seconds."""
+    """Return |measured ee - target| [m] once below tol, or after 2 simulated seconds."""
     err = [np.inf]
 
     def close():
         err[0] = float(np.linalg.norm(bot.core.measured_ee_pose()[:3, 3] - target))
         return err[0] < tol
-    wait_until(close, 0.5)
+    wait_until(close, 2.0)
     return err[0]
 
 

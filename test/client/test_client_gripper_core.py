@@ -174,6 +174,10 @@ def test_grasp_timing_from_the_xl430_figures_and_early_arm_move_warning(bot, cap
     g.release(2.5)
     capfd.readouterr()
     g.grasp(0.2)  # far too short: the fingers are still closing
+    # the warning reads the fingers' speed from joint_states: wait until this process has one
+    # of the closing (about a third of the 1 s closing, at BOT_SPEED)
+    assert wait_until(lambda: abs(g.get_gripper_velocity()) > 0.1, 3.0), \
+        g.get_gripper_velocity()
     assert bot.arm.set_single_joint_position('waist', 0.2)
     err = capfd.readouterr().err
     assert 'still closing on nothing' in err and 'give grasp() a longer delay' in err, err
@@ -239,7 +243,9 @@ def test_interrupt_stops_moving_fingers_and_keeps_a_grasp(bot):
         assert wait_until(lambda: g.get_finger_position() < UPPER - 0.004, 3.0)
         report = bot.core.interrupt(settle=0.0)
         assert 'gripper stopped at' in report, report
-        pause(bot, 0.3)
+        assert wait_until(lambda: abs(g.get_gripper_velocity()) < 0.01, 3.0), \
+            g.get_gripper_velocity()
+        pause(bot, 0.1)
         stopped = g.get_finger_position()
         pause(bot, 0.7)
         assert abs(g.get_finger_position() - stopped) < 3e-4

@@ -59,7 +59,7 @@ def _script_env():
 @pytest.mark.parametrize('with_recorder', [True, False])
 def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rclpy_context,
                                                     tmp_path, with_recorder):
-    """SIGINT mid-move: arm at rest within 0.2 s, short of the goal; one line; exit 130."""
+    """SIGINT mid-move: arm at rest within 0.5 s, short of the goal; one line; exit 130."""
     from rclpy.node import Node
     from rclpy.parameter import Parameter
     ns = f'px100_int_{os.getpid()}_{int(with_recorder)}'
@@ -116,15 +116,17 @@ def test_ctrl_c_cancels_holds_reports_and_exits_130(node_process, spin_node, rcl
         assert os.path.isfile(os.path.join(bag, 'metadata.yaml'))
     else:
         assert 'no bag recorded' in lines[0], lines[0]
-    # at rest within 0.2 s of the signal (speed below 0.05 rad/s from then on; the settling
-    # afterwards stays within 0.01 rad) and short of the goal (1.5 rad)
+    # at rest within 0.5 s of the signal (speed below 0.05 rad/s from then on; the settling
+    # afterwards stays within 0.01 rad) and short of the goal (1.5 rad). Quiet, 0.01-0.07 s;
+    # the signal's wake-up and the cancel's trip run on the wall clock, the arm at real time,
+    # so a starved script adds its delay (the full move would run on for seconds)
     final = samples[-1][1]
     assert 0.3 < final < 1.3, samples[-5:]
     fast = [t1 for (t0, q0), (t1, q1) in zip(samples, samples[1:])
             if t1 - t0 > 1e-3 and abs(q1 - q0) / (t1 - t0) > 0.05]
     t_rest = (max(fast) - t_sig) if fast else 0.0
-    late = [q for t, q in samples if t >= t_sig + 0.2]
-    assert t_rest < 0.2, (f'arm still moving {t_rest:.3f} s after SIGINT; (s after it, waist '
+    late = [q for t, q in samples if t >= t_sig + 0.5]
+    assert t_rest < 0.5, (f'arm still moving {t_rest:.3f} s after SIGINT; (s after it, waist '
                           f'rad): {[(round(t - t_sig, 3), round(q, 4)) for t, q in samples]}')
     assert max(late) - min(late) < 0.01, (min(late), max(late))
     print(f'at rest {t_rest:.3f} s after SIGINT at waist {final:.3f} rad; {lines[0]}')

@@ -82,7 +82,7 @@ def test_moving_time_zero_moves_fast_without_an_error_log(bot, capfd):
     assert arm.set_single_joint_position('waist', 0.6, moving_time=0) is True
     elapsed = time.monotonic() - t0
     assert wait_until(lambda: abs(arm.get_joint_positions()[0] - 0.6) < 0.02, 2.0)
-    assert elapsed < 1.5  # 0.6 rad at pi rad/s: about 0.3 s plus settling
+    assert elapsed < 5.0  # a hang; 0.6 rad at pi rad/s is about 0.3 s plus settling
     assert arm.set_joint_positions([0.0, -0.5, 0.5, 0.0], moving_time=0) is True
     err = capfd.readouterr().err
     assert '[ERROR]' not in err, err

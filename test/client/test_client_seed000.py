@@ -51,13 +51,15 @@ def spy(monkeypatch, seed):
 
     def recording(self, joint_positions, *args, **kwargs):
         ok = original(self, joint_positions, *args, **kwargs)
-        last = self.core.ee_pose
-        wait_until(lambda: self.core.ee_pose is not last, 1.0)
+        fk = self.core.model.fk(self.get_joint_commands())[:3, 3]
+        # the servos close the last fraction after SUCCEEDED: wait (a bounded while) for it
+        wait_until(lambda: np.linalg.norm(self.core.measured_ee_pose()[:3, 3] - fk) < 0.3e-3,
+                   2.0)
         calls.append({'command': np.asarray(joint_positions, dtype=float).copy(), 'ok': ok,
                       'error': '' if ok else self.last_error,
                       'measured': np.array(self.get_joint_positions()),
                       'ee': self.core.measured_ee_pose()[:3, 3].copy(),
-                      'fk': self.core.model.fk(self.get_joint_commands())[:3, 3]})
+                      'fk': fk})
         return ok
 
     monkeypatch.setattr(arm_module.InterbotixArmXSInterface, 'set_joint_positions', recording)

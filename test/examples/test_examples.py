@@ -116,7 +116,7 @@ def test_seed001_waypoints_on_the_simulated_arm(tmp_path):
     rep = _run('seed001_aik_and_cartesian', tmp_path, '--skip-pid')
     assert _get(rep, 'set_ee_waypoints returned True')[0].matches
     assert _get(rep, 'measured end effector at the last waypoint')[0].matches
-    assert rep.values['robot_offline_mm'] < 5.0
+    assert rep.values['robot_offline_mm'] < 8.0
     assert any(p.endswith('set_ee_waypoints_measured.png') for p in rep.figures)
 
 

@@ -161,8 +161,11 @@ def test_pipeline_disabled_computes_on_demand_only(fresh):
     client.clusters()
     calls[0] += 1
     assert wait_for(lambda: client.objects - start >= calls[0], 10.0)
+    # one output of the enabled pipeline may still be in flight when the disable's reply
+    # comes (another topic); a pipeline run per cloud would add 5 more
     with client.lock:
-        assert client.objects - start == calls[0]
+        assert calls[0] <= client.objects - start <= calls[0] + 1, (client.objects - start,
+                                                                    calls[0])
 
 
 def test_empty_and_big_endian_clouds_give_no_clusters_with_the_reason(fresh):

@@ -13,7 +13,7 @@ def main():
     T = np.eye(4)
     T[:3, 3] = [0.2, 0.0, 0.15]
     _, ok3 = bot.arm.set_ee_pose_matrix(T)
-    print('ee_pose', ok1, ok2, ok3, np.round(bot.arm.get_ee_pose()[:3, 3], 3).tolist())
+    print('ee_pose', ok1, ok2, ok3, np.round(bot.arm.get_ee_pose()[:3, 3], 2).tolist())
     bot.arm.go_to_home_pose()
     bot.arm.go_to_sleep_pose()
     robot_shutdown()
