@@ -242,6 +242,27 @@ class TrajectoryClient(Node):
         return fut.result() if fut.done() else None
 
 
+def seed_probe(model, new, old, tries: int = 200):
+    """
+    Return (target (4, 4), answer q) that tells the measured state ``new`` from ``old``, or None.
+
+    compute_ik seeds a request without a seed with the measured state: its 'pitch' answer for
+    the target is ``answer`` once ik_service has read ``new``, another solution while it still
+    has ``old``. None when no target tried tells them apart (their answers are the same).
+    """
+    import numpy as np
+    from px100_control.kinematics.solve import solve_ik
+    new, old = np.asarray(new, float), np.asarray(old, float)
+    rng = np.random.default_rng(0)
+    for q in [new, *model.random_configurations(tries, rng, margin=0.05)]:
+        T = model.fk(q)
+        a = solve_ik(model, T, mode='pitch', q_seed=new)
+        b = solve_ik(model, T, mode='pitch', q_seed=old)
+        if a.success and (not b.success or np.max(np.abs(a.q - b.q)) > 1e-3):
+            return T, np.asarray(a.q)
+    return None
+
+
 def start_node(processes, name: str, *params: str):
     """
     Start an installed executable with ``-p`` parameters; return the NodeProcess.

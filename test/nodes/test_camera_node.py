@@ -235,8 +235,11 @@ def test_tag_out_of_view_is_not_found(env):
     """The tag not rendered (armtag:=false): a clear 'not found' with the reason."""
     probe, camera, params = env
     assert all(r.successful for r in _set(params, armtag=False))
+    # a frame stamped after the reply (the host's wall clock, as in test_enable_false_stops_frames)
+    # was rendered without the tag; one rendered before may still arrive late
+    off = time.time()
     try:
-        f = probe.frame(after=_sim_seconds(probe.frame()['color']) + 0.01)
+        f = probe.frame(after=off)
         color = np.frombuffer(bytes(f['color'].data), np.uint8).reshape(480, 640, 3)
         found = armtag.detect(color, CAMERA.intrinsics())
         assert not found.found and found.T_camera_tag is None

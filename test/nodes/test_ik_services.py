@@ -7,11 +7,10 @@ running) and publish their introspection events.
 """
 import math
 import threading
-import time
 
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped
 from nodes_fake_driver import FakeDriver
-from nodes_helpers import start_node, STARTUP_TIMEOUT, wait_for
+from nodes_helpers import seed_probe, start_node, STARTUP_TIMEOUT, wait_for
 import numpy as np
 from px100_control.kinematics.se3 import rot_x
 from px100_control.kinematics.solve import solve_ik
@@ -66,11 +65,24 @@ class Env:
         self.server, self.driver, self.client = server, driver, client
 
     def set_state(self, q):
-        """Make the joint-state source report q and wait until the node has seen it."""
+        """Make the joint-state source report q and wait until the node answers from it."""
         with self.driver.lock:
+            old = list(self.driver.q)
             self.driver.q = [float(x) for x in q]
             self.driver.target = list(self.driver.q)
-        time.sleep(0.3)
+        probe = seed_probe(MODEL, q, old)
+        if probe is None:       # no answer depends on which of the two the node has
+            return
+        T, want = probe
+        got = []
+
+        def seeded():
+            res = self.client.compute_ik(T, mode='pitch')
+            got.append(list(res.solution.position))
+            return res.success and np.allclose(res.solution.position, want, rtol=0, atol=1e-6)
+        assert wait_for(seeded, 10.0), \
+            f'ik_service still answers {got[-1]} (seeded by {old}?), not {want.tolist()} ' \
+            f'(seeded by {list(q)}), after {len(got)} calls'
 
 
 @pytest.fixture(scope='module')

@@ -224,9 +224,13 @@ def test_two_robots_side_by_side_by_namespace_alone(ros_ctx, spinner, probe, pro
     status = arm1.wait_terminal(goal, times[-1] + 20.0)
     assert status == 'SUCCEEDED', \
         f'{arm1.statuses(goal)} {_why(arm1, goal)}\n/arm1 bringup:\n{b1.output()[-3000:]}'
-    end = arm1.measured()
-    for name, q in zip(path.joint_names, path.points[-1].positions):
-        assert abs(end[name] - q) < 0.01, (name, end[name], q)
+    final = dict(zip(path.joint_names, path.points[-1].positions))
+
+    def off(measured):   # the joints more than 0.01 rad from the path's end: {name: (q, want)}
+        return {n: (measured[n], q) for n, q in final.items() if abs(measured[n] - q) >= 0.01}
+    # the server judged the arm there; this client's joint_states may trail
+    assert wait_for(lambda: not off(arm1.measured()), 5.0), \
+        f'5 s after SUCCEEDED, (measured, end): {off(arm1.measured())}'
     moved2 = max(abs(arm2.measured()[n] - start2[n]) for n in path.joint_names)
     assert moved2 < 1e-3, moved2
     assert not math.isnan(moved2)

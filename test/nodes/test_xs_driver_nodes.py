@@ -5,6 +5,7 @@ One sim_driver (installed executable, namespace /px100); a probe node in this pr
 it the way Interbotix's Python module (interbotix_xs_modules xs_robot core.py, arm.py,
 gripper.py at humble/jazzy) does: the same service clients, the same calls in the same order.
 """
+import collections
 import math
 import threading
 import time
@@ -14,6 +15,7 @@ from interbotix_xs_msgs.msg import JointGroupCommand, JointSingleCommand, JointT
 from interbotix_xs_msgs.srv import (MotorGains, OperatingModes, Reboot, RegisterValues,
                                     RobotInfo, TorqueEnable)
 from nodes_helpers import start_node, wait_for
+import numpy as np
 import pytest
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
@@ -39,6 +41,9 @@ class Probe:
         self.node = n = Node('xs_probe', context=ctx)
         self.lock = threading.Lock()
         self.js, self.diag, self.js_count = None, [], 0
+        # (stamp [s] on the driver's clock, {name: position}): timings measured on the stamps
+        # do not count this (loaded) process's or the transport's latency
+        self.history = collections.deque(maxlen=6000)
         for attr, srv, name in SERVICES:
             setattr(self, attr, n.create_client(srv, f'{NS}/{name}'))
         self.pub_group = n.create_publisher(JointGroupCommand, f'{NS}/commands/joint_group', 10)
@@ -46,7 +51,7 @@ class Probe:
                                              10)
         self.pub_traj = n.create_publisher(JointTrajectoryCommand,
                                            f'{NS}/commands/joint_trajectory', 10)
-        n.create_subscription(JointState, f'{NS}/joint_states', self._js, 10)
+        n.create_subscription(JointState, f'{NS}/joint_states', self._js, 100)
         n.create_subscription(DiagnosticArray, '/diagnostics', self._diag, 50)
         spinner.add(n)
 
@@ -54,6 +59,8 @@ class Probe:
         with self.lock:
             self.js = msg
             self.js_count += 1
+            self.history.append((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9,
+                                 dict(zip(msg.name, msg.position))))
 
     def _diag(self, msg):
         with self.lock:
@@ -71,6 +78,37 @@ class Probe:
 
     def arm(self):
         return [self.position(j) for j in ARM]
+
+    def mark(self) -> float:
+        """Return the stamp [s] of the latest joint_states: take it before a command."""
+        with self.lock:
+            return self.history[-1][0]
+
+    def samples(self, mark: float):
+        """Return the joint_states from the one at ``mark`` on: [(stamp [s], {name: q})]."""
+        with self.lock:
+            return [h for h in self.history if h[0] >= mark]
+
+    def motion(self, mark: float, target=None, names=ARM, eps=0.005, tol=0.03):
+        """
+        Return (start, arrival) stamps [s] of the motion after ``mark``.
+
+        start: the first sample where a joint of ``names`` is eps [rad] from where it was at
+        ``mark`` (None when none moved); arrival: the first sample with every joint within tol
+        of ``target`` (None when none is, or no target).
+        """
+        got = self.samples(mark)
+        base = got[0][1]
+        start = next((t for t, q in got if max(abs(q[n] - base[n]) for n in names) > eps), None)
+        arrival = None if target is None else next(
+            (t for t, q in got if max(abs(q[n] - x) for n, x in zip(ARM, target)) < tol), None)
+        return start, arrival
+
+    def moving_time(self, mark: float, target, tol=0.03) -> float:
+        """Return the driver-clock seconds from the motion's start to its arrival (0: no move)."""
+        start, arrival = self.motion(mark, target, tol=tol)
+        assert arrival is not None, f'no sample within {tol} of {target}: at {self.arm()}'
+        return 0.0 if start is None else arrival - start
 
     def wait_arm(self, target, tol=0.03, timeout=8.0):
         """Wait until every arm joint is within tol [rad] of target; return the seconds."""
@@ -155,16 +193,20 @@ def test_joint_group_follows_the_time_profile(probe):
     try:
         start = probe.arm()
         target = [0.3, -0.5, 0.4, 0.2]
-        t0 = time.monotonic()
+        mark = probe.mark()
         probe.pub_group.publish(JointGroupCommand(name='arm', cmd=target))
-        assert wait_for(lambda: abs(probe.position('elbow') - start[2]) > 0.01, 2.0)
-        # halfway in time, the trapezoid is halfway in position (tracking lag allowed)
-        assert wait_for(lambda: time.monotonic() - t0 > 0.5, 2.0)
-        frac = (probe.position('shoulder') - start[1]) / (target[1] - start[1])
+        assert wait_for(lambda: abs(probe.position('elbow') - start[2]) > 0.01, 5.0), \
+            probe.arm()
         probe.wait_arm(target)
-        arrived = time.monotonic() - t0   # within 0.03 rad: a little before the 1 s profile
-        assert 0.25 < frac < 0.75, frac
-        assert 0.8 < arrived < 2.5, arrived
+        # timed on the driver's stamps from the motion's start: a jump would be whole at once,
+        # the default 2 s profile a fifth of the way at 0.5 s
+        begin, arrival = probe.motion(mark, target)
+        stamps, shoulder = zip(*[(t, q['shoulder']) for t, q in probe.samples(mark)])
+        frac = (np.interp(begin + 0.5, stamps, shoulder) - start[1]) / (target[1] - start[1])
+        arrived = arrival - begin   # within 0.03 rad: a little before the 1 s profile
+        # halfway in time, the trapezoid is halfway in position (tracking lag allowed)
+        assert 0.25 < frac < 0.75, (frac, begin, arrival)
+        assert 0.8 < arrived < 2.5, (arrived, begin, arrival)
     finally:   # the module's later tests expect the default profile
         probe.set_reg('group', 'arm', 'Profile_Velocity', 2000)
 
@@ -177,12 +219,16 @@ def test_velocity_mode_then_back_to_position(probe):
     info = probe.call(probe.srv_get_info, RobotInfo.Request(cmd_type='single', name='waist'))
     assert (info.mode, info.profile_type) == ('velocity', 'velocity')
     start = probe.position('waist')
-    t0 = time.monotonic()
+    mark = probe.mark()
     probe.pub_single.publish(JointSingleCommand(name='waist', cmd=0.5))
-    assert wait_for(lambda: probe.position('waist') > start + 0.25, 3.0), probe.position('waist')
-    speed = (probe.position('waist') - start) / (time.monotonic() - t0)
+    assert wait_for(lambda: probe.position('waist') > start + 0.25, 5.0), probe.position('waist')
     probe.pub_single.publish(JointSingleCommand(name='waist', cmd=0.0))
-    assert 0.3 < speed < 0.55, speed
+    # on the driver's stamps, from the first sample that moved to the first 0.25 rad on
+    begin, _ = probe.motion(mark, names=['waist'])
+    moved = [(t, q['waist']) for t, q in probe.samples(mark) if t >= begin]
+    (t0, q0), (t1, q1) = moved[0], next(m for m in moved if m[1] > start + 0.25)
+    speed = (q1 - q0) / (t1 - t0)
+    assert 0.3 < speed < 0.55, (speed, t0, q0, t1, q1)
     probe.call(probe.srv_set_op_modes, OperatingModes.Request(
         cmd_type='single', name='waist', mode='position', profile_type='time',
         profile_velocity=2000, profile_acceleration=300))
@@ -196,6 +242,7 @@ def test_operating_mode_parameter_is_reported(probe):
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import SetParameters
     client = probe.node.create_client(SetParameters, f'{NS}/sim_driver/set_parameters')
+    assert client.wait_for_service(timeout_sec=30.0), f'no {client.srv_name} in 30 s'
 
     def set_mode(value):
         param = Parameter(name='operating_mode.elbow', value=ParameterValue(
@@ -256,14 +303,20 @@ def test_interbotix_module_call_sequence(probe):
     regs = probe.call(probe.srv_get_reg, RegisterValues.Request(
         cmd_type='group', name='arm', reg='Profile_Velocity'))
     assert list(regs.values) == [2000] * 4
+    mark = probe.mark()
     probe.pub_group.publish(JointGroupCommand(name='arm', cmd=[0.0] * 4))   # go_to_home_pose
-    assert probe.wait_arm([0.0] * 4) < 2.0 + 1.0
+    probe.wait_arm([0.0] * 4)
+    home = probe.moving_time(mark, [0.0] * 4)   # driver-clock seconds: no latency in them
+    assert home < 2.0 + 0.5, home
     _set_trajectory_time(probe, cache, 1.5, None)        # set_joint_positions(.., 1.5)
     target = [0.4, -0.3, 0.2, 0.3]
+    mark = probe.mark()
     probe.pub_group.publish(JointGroupCommand(name='arm', cmd=target))
-    assert 1.0 < probe.wait_arm(target) < 1.5 + 1.0
+    probe.wait_arm(target)
+    moving = probe.moving_time(mark, target)   # the profile ends 1.5 s after the start
+    assert 1.0 < moving < 1.5 + 0.3, moving
     probe.pub_single.publish(JointSingleCommand(name='waist', cmd=-0.4))  # set_single_joint
-    assert wait_for(lambda: abs(probe.position('waist') + 0.4) < 0.03, 3.5)
+    assert wait_for(lambda: abs(probe.position('waist') + 0.4) < 0.03, 6.5), probe.arm()
     _gripper(probe, grip, finger, 250.0)                 # gripper.release()
     _gripper(probe, grip, finger, -250.0)                # gripper.grasp()
     # set_ee_cartesian_trajectory: 200/100 ms waypoints, then the arm's own timing back

@@ -105,7 +105,7 @@ class _Run:
         resend = time.monotonic() + 0.5
         while not predicate():
             now = time.monotonic()
-            assert now < end, f'timed out waiting for {what}'
+            assert now < end, f'timed out waiting for {what() if callable(what) else what}'
             if again is not None and now > resend:     # (/clock is best effort)
                 again()
                 resend = now + 0.5
@@ -160,7 +160,16 @@ def _run_script(model):
             for names, position, effort in commands.get(tick, ()):
                 run.send(names, position, effort)
             run.tick_to(T0_NS + (tick + 1) * TICK_NS)
-        time.sleep(0.2)
+        # world/markers come at least once per world period of simulated time: the run's last
+        # one is stamped within a period of the last tick (once it is here, so is every other)
+        last_ns = T0_NS + ticks * TICK_NS - 1e9 / run.driver.get_parameter('world_rate').value
+
+        def last_marker():
+            with run.lock:
+                s = run.markers[-1].markers[0].header.stamp if run.markers else None
+            return None if s is None else s.sec * 1_000_000_000 + s.nanosec
+        run._wait(lambda: (last_marker() or 0) > last_ns,
+                  lambda: f'world/markers stamped after {last_ns:.0f} ns, last {last_marker()}')
         with run.lock:
             js = [(m.header.stamp.sec, m.header.stamp.nanosec, tuple(m.position),
                    tuple(m.velocity), tuple(m.effort)) for m in run.js]

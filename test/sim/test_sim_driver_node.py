@@ -57,14 +57,17 @@ class Probe:
                 store.append((time.monotonic(), msg))
         return cb
 
-    def wait(self, predicate, timeout=10.0, what='condition'):
+    def wait(self, predicate, timeout=10.0, what='condition', seen=None):
+        """Wait (the lock held for each check) until predicate(); fail with seen() if given."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             with self.lock:
                 if predicate():
                     return
             time.sleep(0.02)
-        raise AssertionError(f'timed out waiting for {what}')
+        with self.lock:
+            shown = f': {seen()}' if seen is not None else ''
+        raise AssertionError(f'timed out ({timeout} s) waiting for {what}{shown}')
 
     def last_js(self) -> JointState:
         with self.lock:
@@ -163,9 +166,8 @@ def test_bad_messages_are_refused_while_publishing_continues(spin_node, rclpy_co
         assert status.level == status.ERROR
         assert words in status.message, (words, status.message)
         assert 'refused' in status.message
-    time.sleep(0.3)
-    with probe.lock:
-        assert len(probe.js) > n_js + 20            # joint_states kept coming meanwhile
+    probe.wait(lambda: len(probe.js) > n_js + 20, timeout=10.0,   # they kept coming meanwhile
+               what='20 more joint_states', seen=lambda: f'{len(probe.js) - n_js} more')
     js = probe.last_js()
     np.testing.assert_allclose(js.position[:4], held, atol=2e-3)   # nothing executed
     probe.send(['waist'], [0.3])                   # and it still obeys a valid setpoint
@@ -273,8 +275,8 @@ def test_control_rate_this_machine_cannot_follow_is_refused(spin_node, rclpy_con
         assert stepper.start_ns - start_ns == 10 * 10 ** 9 - steps * 500_000
         stepper.start_ns = start_ns
     n = len(probe.js)
-    time.sleep(1.0)
-    assert len(probe.js) - n >= 50, 'joint_states stopped'
+    probe.wait(lambda: len(probe.js) - n >= 50, timeout=10.0,   # 0.5 s at 100 Hz: not stopped
+               what='50 more joint_states', seen=lambda: f'{len(probe.js) - n} more')
 
 
 def test_slow_publish_rate_drops_no_simulated_time(spin_node, rclpy_context):
