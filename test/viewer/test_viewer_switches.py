@@ -3,8 +3,8 @@ import os
 import sys
 
 import pytest
-from viewer_support import dark_pixels, open_page, pixels, PORT_BASE, wait_canvas, wait_for, \
-    wait_http, wait_page_text
+from viewer_support import dark_pixels, open_page, pixels, POLL_MS, PORT_BASE, wait_canvas, \
+    wait_for, wait_http, wait_page_text
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'bag'))
@@ -85,10 +85,14 @@ def test_viewer_bag_option_plays_a_bag_with_a_time_slider(browser, node_process,
         page.mouse.down()
         page.mouse.move(x + 40, y, steps=5)
         page.mouse.up()
-        assert float(thumb.get_attribute('aria-valuenow')) > 0.2
+        page.wait_for_function(
+            "(s) => parseFloat(document.querySelector(s).getAttribute('aria-valuenow')) > 0.2",
+            arg=f'[id="{label.get_attribute("for")}"] [role=slider]', timeout=30000,
+            polling=POLL_MS)
         page.wait_for_function(
             '(b) => document.body.innerText.match(/state t = [0-9.]+ s at [0-9:.]+/)[0] !== '
-            'b.match(/state t = [0-9.]+ s at [0-9:.]+/)[0]', arg=before, timeout=10000)
+            'b.match(/state t = [0-9.]+ s at [0-9:.]+/)[0]', arg=before, timeout=30000,
+            polling=POLL_MS)
     finally:
         page.close()
 
@@ -137,12 +141,13 @@ def test_read_only_viewer_shows_a_replayed_bag(browser, node_process, tmp_path):
         # the recorded stamps (1.7e9 s) reach the page as clock time, and they advance
         page.wait_for_function(
             '() => /state t = [0-9.]+ s at [0-9]{2}:[0-9]{2}:[0-9]{2}[.][0-9]{3}/'
-            '.test(document.body.innerText)', timeout=45000)
+            '.test(document.body.innerText)', timeout=45000, polling=POLL_MS)
         assert '17000000' not in page.inner_text('body')
         first = page.inner_text('body')
         page.wait_for_function(
             '(b) => document.body.innerText.match(/state t = [0-9.]+ s at [0-9:.]+/)[0] !== '
-            'b.match(/state t = [0-9.]+ s at [0-9:.]+/)[0]', arg=first, timeout=20000)
+            'b.match(/state t = [0-9.]+ s at [0-9:.]+/)[0]', arg=first, timeout=30000,
+            polling=POLL_MS)
         assert page.locator('[role=slider]').count() == 0
         wait_canvas(page, _arm_drawn, 30.0)
     finally:
