@@ -263,6 +263,30 @@ def seed_probe(model, new, old, tries: int = 200):
     return None
 
 
+def wait_seeded_by(model, new, old, compute_pitch, timeout: float = 10.0) -> None:
+    """
+    Wait until ik_service answers from the measured state ``new`` rather than ``old``.
+
+    ``compute_pitch(T)`` calls compute_ik (mode 'pitch', no seed) and returns the response; it
+    is called on seed_probe's target until the answer is new's. Returns at once when no target
+    tells the two states apart.
+    """
+    import numpy as np
+    probe = seed_probe(model, new, old)
+    if probe is None:       # no answer depends on which of the two the node has
+        return
+    T, want = probe
+    got = []
+
+    def seeded():
+        res = compute_pitch(T)
+        got.append(list(res.solution.position))
+        return res.success and np.allclose(res.solution.position, want, rtol=0, atol=1e-6)
+    assert wait_for(seeded, timeout), \
+        f'ik_service still answers {got[-1]} (seeded by {list(old)}?), not {want.tolist()} ' \
+        f'(seeded by {list(new)}), after {len(got)} calls'
+
+
 def start_node(processes, name: str, *params: str):
     """
     Start an installed executable with ``-p`` parameters; return the NodeProcess.

@@ -11,7 +11,7 @@ import time
 
 from geometry_msgs.msg import Pose
 from nodes_fake_driver import FakeDriver
-from nodes_helpers import IkClient, seed_probe, start_node, STARTUP_TIMEOUT, wait_for
+from nodes_helpers import IkClient, start_node, STARTUP_TIMEOUT, wait_for, wait_seeded_by
 import numpy as np
 from px100_control.kinematics.se3 import rot_x
 from px100_control.kinematics.solve import solve_ik
@@ -49,19 +49,8 @@ class Env:
             old = list(self.driver.q)
             self.driver.q = [float(x) for x in q]
             self.driver.target = list(self.driver.q)
-        probe = seed_probe(MODEL, q, old)
-        if probe is None:       # no answer depends on which of the two the node has
-            return
-        T, want = probe
-        got = []
-
-        def seeded():
-            res = self.client.reply(self.client.request(matrix_to_pose(T), mode='pitch'))
-            got.append(list(res.solution.position))
-            return res.success and np.allclose(res.solution.position, want, rtol=0, atol=1e-6)
-        assert wait_for(seeded, 10.0), \
-            f'ik_service still answers {got[-1]} (seeded by {old}?), not {want.tolist()} ' \
-            f'(seeded by {list(q)}), after {len(got)} calls'
+        wait_seeded_by(MODEL, q, old, lambda T: self.client.reply(
+            self.client.request(matrix_to_pose(T), mode='pitch')))
 
     def solve(self, T=None, pose=None, frame_id=''):
         """Call compute_ik for a (4, 4) target (or a Pose); return (q or None, response)."""

@@ -10,7 +10,7 @@ import threading
 
 from geometry_msgs.msg import Pose, PoseArray, PoseStamped
 from nodes_fake_driver import FakeDriver
-from nodes_helpers import seed_probe, start_node, STARTUP_TIMEOUT, wait_for
+from nodes_helpers import start_node, STARTUP_TIMEOUT, wait_for, wait_seeded_by
 import numpy as np
 from px100_control.kinematics.se3 import rot_x
 from px100_control.kinematics.solve import solve_ik
@@ -70,19 +70,7 @@ class Env:
             old = list(self.driver.q)
             self.driver.q = [float(x) for x in q]
             self.driver.target = list(self.driver.q)
-        probe = seed_probe(MODEL, q, old)
-        if probe is None:       # no answer depends on which of the two the node has
-            return
-        T, want = probe
-        got = []
-
-        def seeded():
-            res = self.client.compute_ik(T, mode='pitch')
-            got.append(list(res.solution.position))
-            return res.success and np.allclose(res.solution.position, want, rtol=0, atol=1e-6)
-        assert wait_for(seeded, 10.0), \
-            f'ik_service still answers {got[-1]} (seeded by {old}?), not {want.tolist()} ' \
-            f'(seeded by {list(q)}), after {len(got)} calls'
+        wait_seeded_by(MODEL, q, old, lambda T: self.client.compute_ik(T, mode='pitch'))
 
 
 @pytest.fixture(scope='module')
