@@ -223,7 +223,7 @@ def test_cancel_midway_stops_smoothly_where_it_is(fresh):
     env.move([0.0, -0.9, 0.9, 0.3], 0.6)
     target = [1.2, -0.9, 0.9, 0.3]
     k0 = env.driver.count()
-    goal = env.client.send(ARM, [(2.0, target)])
+    goal = env.client.send(ARM, [(4.0, target)])     # 3 s left to cancel in, however late
     assert env.client.wait_status(goal, 'EXECUTING', 10.0)
     time.sleep(0.9)
     resp = env.client.cancel(goal)
