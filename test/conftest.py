@@ -40,18 +40,31 @@ os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 import pytest  # noqa: E402
-from tiers import CHEAP_SHARED_FIXTURES, NOT_QUICK, QUICK_PATHS, SPREAD_MODULES, \
-    worker_scope  # noqa: E402
+from tiers import CHEAP_SHARED_FIXTURES, longest_first, NOT_QUICK, QUICK_PATHS, \
+    SPREAD_MODULES, worker_scope  # noqa: E402
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
-    """Schedule by worker_scope (xdist's loadgroup marks do not reach pytest 9's node ids)."""
+    """
+    Schedule by worker_scope (xdist's loadgroup marks do not reach pytest 9's node ids).
+
+    The first unit handed out reorders the queue: tiers.LONGEST_FIRST's scopes go out first.
+    """
     from xdist.scheduler import LoadScopeScheduling
 
     class _Scheduling(LoadScopeScheduling):
+        ordered = False
+
         def _split_scope(self, nodeid):
             return worker_scope(nodeid)
+
+        def _assign_work_unit(self, node):
+            if not self.ordered:
+                for scope in reversed(longest_first(self.workqueue)):
+                    self.workqueue.move_to_end(scope, last=False)
+                self.ordered = True
+            super()._assign_work_unit(node)
     return _Scheduling(config, log)
 
 

@@ -14,6 +14,15 @@ def test_spread_and_serial_modules_exist():
     """A renamed module would silently fall back to whole-module scheduling."""
     for path in (*tiers.SPREAD_MODULES, *tiers.SERIAL_GROUPS):
         assert os.path.exists(os.path.join(ROOT, path)), path
+    groups = set(tiers.SERIAL_GROUPS.values())
+    for scope in tiers.LONGEST_FIRST:
+        assert scope in groups or os.path.exists(os.path.join(ROOT, scope)), scope
+
+
+def test_longest_scopes_go_first_the_rest_keep_their_order():
+    scopes = ['test/a.py', 'port_8080', 'test/b.py', 'camera', 'test/c.py']
+    assert tiers.longest_first(scopes) == ['camera', 'port_8080', 'test/a.py', 'test/b.py',
+                                           'test/c.py']
 
 
 def test_worker_scope_is_group_then_test_then_module():

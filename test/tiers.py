@@ -55,6 +55,13 @@ SPREAD_MODULES = ('test/test_clean_shutdown.py', 'test/client/test_client_demo.p
                   'test/nodes/test_world_nodes.py', 'test/test_launch_files.py',
                   'test/robots/test_client_robots.py', 'test/robots/test_ik_service_robots.py',
                   'test/sim/test_sim_driver_node.py')
+#: the scopes that cost the most wall time (CI's per-test times, scripts/slowest_tests.py:
+#: camera 288 s, port_8080 141 s, the browser page 94 s, the rest under 50 s each), handed out
+#: first and in this order: the longest units start at once instead of lengthening the run's tail
+#: when dealt last (xdist orders by test count)
+LONGEST_FIRST = ('camera', 'port_8080', 'test/viewer/test_viewer_browser.py',
+                 'test/viewer/test_viewer_switches.py', 'test/client/test_demo_output.py',
+                 'test/nodes/test_first_hour_nodes.py')
 #: module fixtures cheap enough to set up on every worker that runs a SPREAD_MODULES test:
 #: 'file::fixture'
 CHEAP_SHARED_FIXTURES = {'conftest.py::_no_stray_processes', 'test_clean_shutdown.py::graph',
@@ -68,3 +75,9 @@ def worker_scope(nodeid: str) -> str:
         if module.startswith(prefix):
             return group
     return nodeid if module in SPREAD_MODULES else module
+
+
+def longest_first(scopes) -> list:
+    """Return ``scopes`` with those of LONGEST_FIRST first, in its order; the others as given."""
+    rank = {scope: i for i, scope in enumerate(LONGEST_FIRST)}
+    return sorted(scopes, key=lambda scope: rank.get(scope, len(rank)))
