@@ -7,12 +7,13 @@ bash "$ROOT/scripts/setup.sh"
 bash "$ROOT/scripts/setup_browser.sh"
 # shellcheck disable=SC1091
 source "$ROOT/scripts/env.sh"
-# Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them, default 2 (0: one process).
+# Parallel workers (pytest-xdist): PX100_TEST_WORKERS of them, default 3 (0: one process;
+# benchmarks/README.md says why 3).
 # Without arguments the stress package runs after the parallel phase, alone (see below); with
 # arguments, one pytest run with them.
 # Worker K runs in DDS domain ROS_DOMAIN_ID + K with its own viewer ports (test/conftest.py);
 # a test module goes to one worker whole, except SPREAD_MODULES (test/tiers.py).
-WORKERS=${PX100_TEST_WORKERS:-2}
+WORKERS=${PX100_TEST_WORKERS:-3}
 # a domain no other ROS program on this host is using (scripts/free_domain.py says how it knows)
 DOMAINS=$(( WORKERS > 0 ? WORKERS : 1 ))
 ROS_DOMAIN_ID=${PX100_TEST_DOMAIN:-$(python "$ROOT/scripts/free_domain.py" "$DOMAINS")}
