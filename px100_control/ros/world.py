@@ -53,6 +53,8 @@ class WorldPublisher:
         self._movable: List = []                    # (marker index, object name)
         self._raw = None                            # the message's bytes writer, if any
         self._next_ns: Optional[int] = None
+        #: the stamp [ns] of the last world/markers published (None before the first)
+        self.last_stamp_ns: Optional[int] = None
         self._held: Optional[str] = None           # last published
         self._held_filter = HeldFilter()
         self.has_objects = False
@@ -101,6 +103,7 @@ class WorldPublisher:
                 stamp_ns < self._next_ns - 2e9 / self.rate):      # (the clock went back)
             return
         self._outbox.publish(self.pub_markers, self._markers(bodies, sim, stamp_ns))
+        self.last_stamp_ns = stamp_ns
         period = int(round(1e9 / self.rate))
         self._next_ns = (stamp_ns + period if self._next_ns is None
                          or abs(stamp_ns - self._next_ns) > period
