@@ -433,6 +433,11 @@ PC_FILTER = NodeSchema('pointcloud_pipeline', (
               'default cloud_topic is /<robot_name>/camera/depth/color/points', read_only=True),
     ParamSpec('cloud_topic', 'string', '', "PointCloud2 to filter; '' = "
               '/<robot_name>/camera/depth/color/points', read_only=True),
+    ParamSpec('cloud_reliability', 'string', 'reliable', "the cloud subscription's "
+              "reliability: 'reliable' (realsense2_camera's and this camera's default; a "
+              'best-effort cloud of several MB is lost whole when one fragment is) or '
+              "'best_effort' (for a camera that publishes best effort, e.g. with the "
+              'sensor-data profile)', read_only=True, choices=('reliable', 'best_effort')),
     ParamSpec('enable_pipeline', 'bool', False, 'filter every cloud as it arrives (false, as '
               "Interbotix's pc_filter launch file: only when get_cluster_positions is called); "
               'the enable_pipeline service sets it'),

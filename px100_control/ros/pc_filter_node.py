@@ -5,8 +5,8 @@ Node ``pointcloud_pipeline`` in namespace ``/pc_filter`` (Interbotix's ``pc_filt
 with its default ``filter_ns``; ``-r __ns:=/other`` moves it), so Interbotix's
 ``InterbotixPointCloudInterface`` finds its services at ``/pc_filter/...``:
 
-- subscribes ``cloud_topic`` (sensor_msgs/PointCloud2, best effort, depth 1; default
-  ``/<robot_name>/camera/depth/color/points``);
+- subscribes ``cloud_topic`` (sensor_msgs/PointCloud2, keep last 1, reliable or
+  ``cloud_reliability:=best_effort``; default ``/<robot_name>/camera/depth/color/points``);
 - ``set_filter_params`` (interbotix_perception_msgs/FilterParams): all 14 parameters at once.
   A set with a wrong value (out of the schema's range, a min not below its max, NaN,
   cluster_min_size above cluster_max_size) is refused as a whole, every wrong one named in the
@@ -58,9 +58,18 @@ from visualization_msgs.msg import Marker
 
 NODE_NAME = 'pointcloud_pipeline'
 NAMESPACE = '/pc_filter'
-#: the camera's cloud: newest only, best effort (matches reliable and best-effort publishers)
-CLOUD_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                       reliability=ReliabilityPolicy.BEST_EFFORT)
+#: the camera's cloud, newest only, by the ``cloud_reliability`` parameter. Reliable by
+#: default: a best-effort reader of a reliable 4.9 MB cloud lost every cloud under load
+CLOUD_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
+                     'best_effort': ReliabilityPolicy.BEST_EFFORT}
+
+
+def cloud_qos(reliability: str) -> QoSProfile:
+    """Return the cloud subscription's QoS: keep last 1, ``reliability`` ('reliable'...)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                      reliability=CLOUD_RELIABILITY[reliability])
+
+
 #: the same no-cluster reason is logged at most once per this period [s]
 REASON_PERIOD = 5.0
 
@@ -97,7 +106,8 @@ class PcFilterNode(Node):
         self._pub_markers = self.create_publisher(Marker, 'markers/objects', 50)
         self._pub_crop = self.create_publisher(Marker, 'markers/crop_box', 1)
         self._pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self.create_subscription(PointCloud2, self._topic, self._on_cloud, CLOUD_QOS)
+        self.create_subscription(PointCloud2, self._topic, self._on_cloud,
+                                 cloud_qos(self.get_parameter('cloud_reliability').value))
         for srv, name, callback in ((FilterParamsSrv, 'set_filter_params', self._on_set_params),
                                     (ClusterInfoArray, 'get_cluster_positions',
                                      self._on_get_clusters),

@@ -192,3 +192,50 @@ def test_touching_objects_merge_into_one_cluster_as_the_real_filter_does(fresh):
     apart = client.clusters_after(scene_cloud([(0.0, 0.0, 0.03, 0.03),
                                                (0.06, 0.0, 0.03, 0.02)]), 2)
     assert sorted(round(c.position.x, 2) for c in apart) == [0.0, 0.06]
+
+
+def test_cloud_subscription_is_reliable_by_default_and_best_effort_on_request(env):
+    """
+    The cloud reader is reliable by default, best effort with ``cloud_reliability``.
+
+    A best-effort reader lost every 4.9 MB cloud under load; with
+    ``cloud_reliability:=best_effort`` a pc_filter matches a best-effort camera and filters it.
+    """
+    from px100_control.ros.pc_filter_node import PcFilterNode
+    from rclpy.executors import SingleThreadedExecutor as Executor
+    from rclpy.parameter import Parameter
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import PointCloud2
+    from interbotix_perception_msgs.srv import ClusterInfoArray
+    client, _ = env
+    readers = client.get_subscriptions_info_by_topic('/px100/camera/depth/color/points')
+    assert [r.qos_profile.reliability for r in readers if r.node_name == 'pointcloud_pipeline'] \
+        == [ReliabilityPolicy.RELIABLE]
+    topic = '/test_best_effort/points'
+    node = PcFilterNode(namespace='/pc_best_effort', context=client.context,
+                        parameter_overrides=[Parameter('cloud_topic', value=topic),
+                                             Parameter('cloud_reliability', value='best_effort'),
+                                             Parameter('enable_pipeline', value=True)])
+    executor = Executor(context=client.context)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    pub = client.create_publisher(PointCloud2, topic, QoSProfile(
+        depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+    get = client.create_client(ClusterInfoArray, '/pc_best_effort/get_cluster_positions')
+    try:
+        assert wait_for(lambda: pub.get_subscription_count() > 0 and get.service_is_ready(),
+                        STARTUP_TIMEOUT), 'the best-effort pc_filter never matched'
+        cloud, found = scene_cloud(TWO_BOXES), []
+
+        def two_clusters():
+            pub.publish(cloud)
+            found[:] = client.call(get, ClusterInfoArray.Request()).clusters
+            return len(found) == 2
+        assert wait_for(two_clusters, 30.0, period=0.2), f'{len(found)} clusters, not 2'
+    finally:
+        executor.shutdown(timeout_sec=2.0)
+        thread.join(timeout=5.0)
+        client.destroy_publisher(pub)
+        client.destroy_client(get)
+        node.destroy_node()
