@@ -42,8 +42,9 @@ EXPECTED = {
 #: results are poses and outputs, not their pacing (dual_arm: the second arm's driver follows
 #: the first one's clock)
 SPEED = 3.0
-#: scripts run at real time
-REAL_TIME = ()
+#: scripts run at real time: current_control's arm sags between its mode switch and its
+#: currents (as the real arm does); at SPEED a 0.1 s wall gap dropped it onto the table
+REAL_TIME = ('current_control.py',)
 
 
 def test_only_import_lines_name_px100_control():
