@@ -123,8 +123,13 @@ def _run(script, tmp_path):
         # for a subscriber); a few frames: the camera's first ones may precede the bodies
         node.create_subscription(CameraInfo, '/px100/camera/color/camera_info',
                                  lambda m: frames.append(1), 1)
-        assert wait_for(lambda: len(frames) >= 10 and markers.now(), STARTUP_TIMEOUT), \
-            'no camera frame or world/markers\n' + procs[0].output()[-3000:]
+        # up, or a node process gone (a bad parameter): fail with its output, not after the wait
+        assert wait_for(lambda: (len(frames) >= 10 and markers.now())
+                        or not all(p.alive() for p in procs), STARTUP_TIMEOUT) \
+            and all(p.alive() for p in procs), \
+            'no camera frame or world/markers\n' + '\n'.join(
+                f'-- {p.name} ({"running" if p.alive() else "exited"}):\n{p.output()[-3000:]}'
+                for p in procs)
         before = markers.now()
         proc = subprocess.run([sys.executable, os.path.join(EXAMPLES, f'{script}.py')],
                               capture_output=True, text=True, timeout=600,
