@@ -327,9 +327,12 @@ class GoalExecutor:
         """Advance the running goal to ``now_ns``: the setpoint to send and any verdict."""
         out = Outcome()
         g = self.active
-        if g is None or not self._hold_for_state(g, now_ns, steady_ns, out):
+        if g is None:
             return out
+        # a stall first: the states it left unread then pause the goal from its end on
         self._skip_stall(g, now_ns, out)
+        if not self._hold_for_state(g, now_ns, steady_ns, out):
+            return out
         t = (now_ns - g.t_start) * 1e-9
         if g.stepped and g.phase == 'executing':
             # one step per setpoint, however late the tick (never a bigger step)
@@ -394,8 +397,8 @@ class GoalExecutor:
         stamped during the gap are placed before it on the goal's time (``pauses``).
         """
         last, g.last_tick_ns = g.last_tick_ns, now_ns
-        if last is None or (g.stepped and g.phase == 'executing'):
-            return           # a first tick, or one step per tick already
+        if last is None or g.hold_since is not None or (g.stepped and g.phase == 'executing'):
+            return           # a first tick, paused already, or one step per tick already
         gap = now_ns - last
         if gap * 1e-9 <= self.settings.hold_after:
             return

@@ -247,6 +247,33 @@ def test_a_server_not_scheduled_goes_on_from_where_it_was():
     assert elapsed >= 1.0 - 0.05                             # the rest of the move, not skipped
 
 
+def test_a_stall_that_leaves_the_states_unread_counts_whole():
+    """
+    The server's process starved 1.1 s: no tick and no joint_states read meanwhile.
+
+    The first tick after it finds the states stale and pauses the goal; the stall before that
+    tick is a pause too, or the goal's clock jumps 1.1 s ahead of the setpoints sent
+    (test_viewer_browser, load 7: 'not scheduled for 1.13 s', 'resumed after a 0.11 s pause',
+    then 'tracking error of joint shoulder is 0.4874 rad').
+    """
+    rig = Rig(hold_after=0.25, state_timeout=2.0)
+    rig.start(request([(1.5, [1.2])], names=['waist']))     # 1 rad/s after a 0.3 s ramp
+    rig.run(0.5)
+    last = rig.qs()[-1].copy()
+    rig.now += 1_100_000_000                  # starved: nothing ran, the driver held `last`
+    rig.steady += 1_100_000_000
+    rig.silent = True
+    assert rig.step() is None, rig.notes      # the states are 1.1 s old: paused
+    assert [n for n in rig.notes if 'paused: no joint_states' in n[1]], rig.notes
+    rig.measure()                             # the queued states, read now
+    rig.silent = False
+    assert rig.step() is None, rig.notes
+    assert abs(rig.qs()[-1][0] - last[0]) < 0.01, (rig.qs()[-1], last)   # on from where it was
+    status, reason, elapsed = rig.run(3.0)
+    assert status == SUCCEEDED, reason
+    assert elapsed >= 1.0 - 0.05                             # the rest of the move, not skipped
+
+
 def test_watchdog_aborts_after_two_stale_checks_on_the_steady_clock():
     """A stopped goal clock (sim time) does not hide a silent driver: steady time decides."""
     rig = Rig(state_timeout=0.5, hold_after=0.25)
