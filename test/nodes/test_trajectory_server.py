@@ -329,10 +329,14 @@ def test_waypoint_goal_passes_through_its_points(fresh):
     assert env.client.wait_terminal(goal, 15.0) == 'SUCCEEDED'
     env.wait_final_setpoint(goal, ARM, pts[-1][1])
     t, q, qd = env.setpoints_since(k0)
-    for tw, p in pts:   # the setpoint nearest in time to each waypoint is that far from it
-        k = int(np.argmin(np.abs(t - (t[0] + tw))))
-        dt = abs(t[k] - (t[0] + tw))
-        assert np.max(np.abs(q[k] - np.array(p))) <= 1.5 * np.max(np.abs(qd[k])) * dt + 0.01
+    # the setpoints pass each waypoint within one tick's step: by position, not by stamp (a
+    # server stall pauses the goal's clock, so stamps then lag the trajectory's time; CI, load
+    # 7: the setpoint stamped at t[0] + 0.6 s was 0.14 rad short of the first waypoint)
+    period = float(np.median(np.diff(t)))
+    for _, p in pts:
+        dist = np.max(np.abs(q - np.array(p)), axis=1)
+        k = int(np.argmin(dist))
+        assert dist[k] <= 1.5 * np.max(np.abs(qd[k])) * period + 0.01, (p, q[k], dist[k])
     assert _max_step_ok(t, q, qd) < 1.0
     np.testing.assert_allclose(env.position(), pts[-1][1], atol=0.002)
 
