@@ -44,6 +44,9 @@ EXECUTORS = ('events', 'single', 'multi')
 ROTATION = 'rotation'
 #: True: one round per executor and way (9), every executable stopped that way
 PRODUCT = FULL or os.environ.get('PX100_SHUTDOWN_PRODUCT', '').lower() in ('1', 'true', 'yes')
+#: stops whose participant teardown hung and px100_control.tools.exit_watchdog ended (a Fast
+#: DDS 2.14 deadlock, docs/guide.md): the status is still checked, the count is a figure
+WATCHDOG_EXITS = []
 #: what must never appear in a stopped node's output
 BAD_OUTPUT = ('[FATAL]', 'terminate called', 'Traceback', 'Segmentation fault', 'Aborted')
 CORE = ['sim_driver', 'ik_service', 'trajectory_server', 'robot_state_publisher']
@@ -299,6 +302,8 @@ def _round(graph, replay_bag, executor, way, rng, tmp):
         if rc != 0:
             problems.append(f'exit {rc}')
         problems += [f'{bad!r} in output' for bad in BAD_OUTPUT if bad in out]
+        if 'participant teardown hung' in out:      # exit_watchdog ended it: counted, no fail
+            WATCHDOG_EXITS.append(f'{name} ({executor}, {its_way})')
         if name == 'record' and rc == 0:
             reason = _bag_closed(os.path.join(tmp, f'bag_{ns.strip("/")}'))
             if reason:
@@ -352,7 +357,8 @@ def test_every_executable_stops_cleanly(graph, replay_bag, executor, way, tmp_pa
     os.makedirs(os.path.join(ROOT, 'out'), exist_ok=True)
     with open(os.path.join(ROOT, 'out', 'shutdown_stress.jsonl'), 'a', encoding='utf-8') as f:
         f.write(json.dumps({'time': time.strftime('%Y-%m-%dT%H:%M:%S'), 'executor': executor,
-                            'way': way, 'repeats': REPEATS, 'counts': counts}) + '\n')
+                            'way': way, 'repeats': REPEATS, 'counts': counts,
+                            'teardown_watchdog_exits': WATCHDOG_EXITS}) + '\n')
     assert not failures, '\n\n'.join(failures[:5]) + f'\n({len(failures)} problems)'
 
 

@@ -20,6 +20,7 @@ QUICK_PATHS = ('test/kinematics/', 'test/control/', 'test/sim/', 'test/bag/', 't
                'test/test_architecture.py', 'test/test_parameter_schema.py',
                'test/test_path_timing.py', 'test/test_queue_delay.py',
                'test/test_stall_meter.py', 'test/test_slowest_tests.py',
+               'test/test_exit_watchdog.py',
                'test/perception/test_camera_model.py',
                'test/perception/test_cloud_filter.py', 'test/perception/test_pointcloud2.py',
                'test/perception/test_tf_buffer.py', 'test/interfaces/')

@@ -10,10 +10,10 @@ import sys
 from typing import Callable, Optional, Sequence
 
 from px100_control.errors import Px100Error
-from px100_control.ros.common import (BAG_EXECUTOR, ignore_further_interrupts, init_ros,
-                                      install_stop_signals, keep_spinning, make_executor,
-                                      shutdown_executor, shutting_down, spin_once)
-import rclpy
+from px100_control.ros.common import (BAG_EXECUTOR, destroy_nodes, ignore_further_interrupts,
+                                      init_ros, install_stop_signals, keep_spinning,
+                                      make_executor, shutdown_executor, shutting_down,
+                                      spin_once)
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
@@ -53,14 +53,13 @@ def run_bag_tool(prog: str, argv: Sequence[str], build: Callable[[], Node],
         result = 1
     except Exception:
         if not shutting_down():
+            result = 1
             raise
         # SIGINT/SIGTERM shut the context down while the node was being built: not an error
     finally:
         shutdown_executor(executor)
-        if node is not None:
-            if close is not None:
-                close(node)
-            node.destroy_node()
-        rclpy.try_shutdown()
+        if node is not None and close is not None:
+            close(node)
+        destroy_nodes([node] if node is not None else [], result)
         ignore_further_interrupts()
     return result

@@ -24,6 +24,7 @@ from px100_control.models.registry import load_robot
 from px100_control.models.robot_model import RobotModel
 from px100_control.parameters import COMMON, NodeSchema
 from px100_control.ros.parameter_schema import parameter_descriptor
+from px100_control.tools.exit_watchdog import exit_watchdog
 import rclpy
 from rclpy import executors
 from rclpy.clock import Clock, ClockType
@@ -315,6 +316,42 @@ def shutdown_executor(executor) -> None:
         pass
 
 
+#: the hidden node that keeps a process's DDS participant while its nodes are destroyed
+TEARDOWN_KEEPER = '_px100_teardown'
+#: how long [s] the participant's own destruction may take before the process exits anyway
+#: with its status (:mod:`px100_control.tools.exit_watchdog`; it takes milliseconds)
+TEARDOWN_BOUND_S = 3.0
+
+
+def destroy_nodes(nodes, status: int) -> None:
+    """
+    Destroy ``nodes`` (last first) and shut rclpy down: the end of a node process.
+
+    rmw_fastrtps destroys the DDS participant with the context's last node, and Fast DDS 2.14
+    can deadlock there (docs/guide.md, known limits). So a hidden keeper node holds the
+    participant while the nodes' own teardown runs (bags closed, renderers freed, each node's
+    endpoints and name withdrawn from the graph), and only the keeper's destruction, the
+    participant's, runs under :func:`exit_watchdog`: hung for TEARDOWN_BOUND_S, the process
+    ends with ``status`` (the exit status it was about to return) and a line on stderr.
+    """
+    keeper = None
+    try:
+        keeper = Node(f'{TEARDOWN_KEEPER}_{os.getpid()}', use_global_arguments=False,
+                      enable_rosout=False, start_parameter_services=False,
+                      parameter_overrides=[Parameter(START_TYPE_DESCRIPTION_SERVICE_PARAM,
+                                                     value=False)])
+    except Exception:  # noqa: B902 - the context is shut down already: no participant to keep
+        keeper = None
+    for node in reversed(list(nodes)):
+        node.destroy_node()
+    if keeper is None:
+        rclpy.try_shutdown()
+        return
+    with exit_watchdog(TEARDOWN_BOUND_S, status):
+        keeper.destroy_node()
+        rclpy.try_shutdown()
+
+
 #: how long [s, steady] a node with use_sim_time waits for /clock before it warns
 CLOCK_WAIT_S = 3.0
 
@@ -438,6 +475,7 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
         return 1
     nodes: List[Node] = []
     executor = None
+    status = 1              # the exit status, until the nodes ran and stopped as they should
     try:
         try:
             # the executor first: built after a signal shut the context down, its __init__
@@ -449,6 +487,7 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
             return 1
         except Exception as exc:  # noqa: B902 - a signal may interrupt construction anywhere
             if shutting_down():
+                status = 0
                 return 0
             reason = ros_args_error(exc)
             if reason is None:
@@ -462,16 +501,16 @@ def run_nodes(build, argv, executor_kind: Optional[str] = None, done=None) -> in
         # when SIGINT shuts the context down
         while keep_spinning() and not (done is not None and done(nodes)):
             spin_once(executor, 0.1)
+        status = 0
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        status = 0
     except Exception:
         if not shutting_down():
             raise
+        status = 0
     finally:
         shutdown_executor(executor)
-        for node in reversed(nodes):
-            node.destroy_node()
-        rclpy.try_shutdown()
+        destroy_nodes(nodes, status)
         ignore_further_interrupts()
     return 0
 
