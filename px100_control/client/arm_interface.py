@@ -46,6 +46,7 @@ import numpy as np
 
 from px100_control.client.core import feasible_duration, InterbotixRobotXSCore, MIN_MOVE_TIME
 from px100_control.client.robot import InterbotixException
+from px100_control.control.trajectory import shortest_move_time
 from px100_control.errors import InvalidInputError
 from px100_control.kinematics.cartesian import CartesianPathError, plan_ee_waypoints
 from px100_control.kinematics.kernels import wrap
@@ -298,7 +299,7 @@ class InterbotixArmXSInterface:
             return False
         self.set_trajectory_time(moving_time, accel_time)
         mt, at = self._times(None, None)
-        duration = self._feasible_duration(target, mt, at)
+        duration, at = self._feasible_move(target, mt, at)
         if mt <= 0.0:
             self.core.get_node().logdebug(
                 f'moving_time 0: the move takes {duration:.2f} s at the joint velocity limits.')
@@ -316,19 +317,40 @@ class InterbotixArmXSInterface:
 
     _publish_commands = publish_positions
 
-    def _feasible_duration(self, target, moving_time: float, accel_time: float) -> float:
+    def _feasible_move(self, target, moving_time: float, accel_time: float):
         """
-        Return moving_time, or the shortest duration whose trapezoid peak respects the limits.
+        Return (duration, accel_time) [s] of a move to ``target`` that keeps the limits.
 
+        The duration is moving_time, or the shortest whose trapezoid peak respects the limits:
         Interbotix sends home/sleep (and publish_positions) unchecked and the servos cap the
         speed; trajectory_server refuses a too-fast goal, so such a move is stretched instead.
+        While the arm moves, trajectory_server blends its present velocity into the move: the
+        duration is then searched on the server's own plan (:func:`shortest_move_time`) from
+        the farther of the commanded and measured positions at the measured velocity, with
+        10 % to spare for the motion since the joint_states the client read; a no-profile
+        move (accel_time 0: a velocity step on top of the present one) gets MIN_MOVE_TIME / 2
+        of ramp.
         """
         q = np.asarray(target, dtype=float)
-        d = np.abs(q - np.asarray(self.joint_commands, dtype=float))
-        if self.core.joint_state_age() < self.core.stale_timeout:
-            d = np.maximum(d, np.abs(q - np.asarray(self.get_joint_positions())))
-        return feasible_duration(d, self.group_info.joint_velocity_limits, moving_time,
-                                 accel_time)
+        commanded = np.asarray(self.joint_commands, dtype=float)
+        d = np.abs(q - commanded)
+        vmax = np.asarray(self.group_info.joint_velocity_limits, dtype=float)
+        if self.core.joint_state_age() >= self.core.stale_timeout:
+            return feasible_duration(d, vmax, moving_time, accel_time), accel_time
+        here = np.asarray(self.get_joint_positions(), dtype=float)
+        d = np.maximum(d, np.abs(q - here))
+        duration = feasible_duration(d, vmax, moving_time, accel_time)
+        # (the server blends its setpoint's velocity, never above the limits)
+        velocity = np.clip(self.get_joint_velocities(), -vmax, vmax)
+        if not np.any(np.abs(velocity) > 1e-3):
+            return duration, accel_time
+        start = np.where(d == np.abs(q - commanded), commanded, here)
+        at = accel_time if accel_time > 0.0 else MIN_MOVE_TIME / 2.0
+        try:
+            fast = shortest_move_time(start, q, vmax, at, v_start=velocity, at_least=duration)
+        except InvalidInputError:       # the server will say why it refuses the goal
+            return duration, accel_time
+        return (duration if fast <= duration else 1.1 * fast), at
 
     def _execute(self, names, points, times, accel_time, blocking, duration) -> bool:
         for check in list(self.core._before_arm_move):

@@ -645,6 +645,29 @@ def validate_points(known_joints: Sequence[str], joint_names: Sequence[str], tim
     return ''
 
 
+def shortest_move_time(q_start, q_goal, velocity_limits, accel_time: float, v_start=None,
+                       at_least: float = 0.0, growth: float = 1.05) -> float:
+    """
+    Return the shortest duration [s] of a move that keeps within ``velocity_limits`` [rad/s].
+
+    The first duration from ``at_least`` up, in steps of ``growth``, whose :func:`plan_move`
+    (trapezoidal, ``accel_time`` [s], ``v_start`` [rad/s] blended in) passes
+    :func:`check_trajectory`'s velocity check. A move planned while the arm moves carries its
+    present velocity into its first part: a duration from the travel alone can be too short.
+    """
+    q0, q1 = np.asarray(q_start, dtype=float), np.asarray(q_goal, dtype=float)
+    lim = np.asarray(velocity_limits, dtype=float)
+    names = [str(i) for i in range(q0.size)]
+    T = max(float(at_least), 1e-3)
+    for _ in range(64):             # up to about 23 x at_least
+        traj = plan_move(q0, q1, T, 'trapezoidal', accel_time, v_start=v_start)
+        if not check_trajectory(traj, names, velocity_limits=lim):
+            return T
+        T *= growth
+    raise InvalidInputError(f'no move of at most {T:.3g} s keeps within the velocity limits '
+                            f'(accel_time {accel_time:g} s, v_start {v_start})')
+
+
 def check_trajectory(traj: Trajectory, joint_names: Sequence[str], lower=None, upper=None,
                      velocity_limits=None, dt: float = 1e-3) -> str:
     """

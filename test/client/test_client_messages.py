@@ -73,6 +73,22 @@ def test_last_error_is_cleared_by_a_successful_call(bot):
     assert arm.last_error == ''
 
 
+def test_moving_time_zero_while_the_arm_moves_is_accepted(bot, capfd):
+    """moving_time=0 sent while the waist is at speed: planned for that speed, not refused."""
+    arm = bot.arm
+    assert arm.set_joint_positions([0.0, -0.5, 0.5, 0.0], moving_time=1.0)
+    assert arm.set_joint_positions([0.8, -0.5, 0.5, 0.0], moving_time=0, blocking=False)
+    assert wait_until(lambda: arm.get_joint_positions()[0] > 0.4, 2.0), \
+        arm.get_joint_positions()
+    capfd.readouterr()
+    speed = arm.get_joint_velocities()[0]
+    assert arm.set_joint_positions([1.2, -0.5, 0.5, 0.0], moving_time=0) is True, \
+        (arm.last_error, speed)
+    err = capfd.readouterr().err
+    assert 'velocity limit' not in err and '[ERROR]' not in err, err
+    assert wait_until(lambda: abs(arm.get_joint_positions()[0] - 1.2) < 0.02, 2.0)
+
+
 def test_moving_time_zero_moves_fast_without_an_error_log(bot, capfd):
     """moving_time=0: the servos' no-profile move, at the velocity limits; no ERROR logged."""
     arm = bot.arm

@@ -324,3 +324,27 @@ def test_shape_validation_names_the_reason(names, lengths, expected):
 def test_shape_validation_passes_what_only_values_make_invalid():
     """Right names and lengths pass validate_shape (effort counts are not checked)."""
     assert tj.validate_shape(NAMES, ['elbow', 'waist'], [(2, 0, 0, 0), (2, 2, 2, 7)]) == ''
+
+
+@pytest.mark.parametrize('v0', [np.pi, -np.pi, 1.0, 0.0])
+@pytest.mark.parametrize('accel_time', [0.05, 0.3])
+def test_shortest_move_time_is_the_first_the_velocity_check_accepts(v0, accel_time):
+    """A move sent while the joint moves: the duration found passes, 5 % less does not."""
+    lim = np.array([np.pi, np.pi])
+    q0, q1, v = np.zeros(2), np.array([0.45, -0.2]), np.array([v0, 0.0])
+    travel = 0.45 / np.pi + 0.05
+    T = tj.shortest_move_time(q0, q1, lim, accel_time, v_start=v, at_least=travel)
+    assert T >= travel
+
+    def reason(duration):
+        traj = tj.plan_move(q0, q1, duration, 'trapezoidal', accel_time, v_start=v)
+        return tj.check_trajectory(traj, ['a', 'b'], velocity_limits=lim)
+    assert reason(T) == ''
+    if T > travel:
+        assert 'velocity limit' in reason(T / 1.05)
+
+
+def test_shortest_move_time_names_a_move_no_duration_makes_feasible():
+    """accel_time 0 at the velocity limit: a velocity step on top of it, never feasible."""
+    with pytest.raises(InvalidInputError, match='velocity limits'):
+        tj.shortest_move_time([0.0], [0.45], [np.pi], 0.0, v_start=[np.pi], at_least=0.2)
