@@ -7,7 +7,7 @@ physics advances by the elapsed time in chunks (no dependence on timer precision
 chosen at start:
 
 - following a clock (``master`` False): the physics catches up to the clock's now, at most
-  MAX_CHUNK (or one publish period, if longer) at a time; further behind (a starved process),
+  one publish period plus MAX_CHUNK at a time; further behind (a starved process),
   the rest of the time is dropped (``start_ns`` moves on) instead of falling further behind. A
   ``control_rate`` whose physics would need over MAX_PHYSICS_LOAD of a core is refused (the
   step cost is measured while running: about 44 us on a 2-core test machine, so ~18 kHz);
@@ -102,19 +102,24 @@ class Stepper:
             if self.step_cost is None or cost < self.step_cost:
                 self.step_cost = cost
 
+    @property
+    def max_chunk_s(self) -> float:
+        """Return the most simulated time [s] one catch-up integrates: a period + MAX_CHUNK."""
+        return 1.0 / self.publish_rate + MAX_CHUNK
+
     def capped_steps(self, behind_ns: int) -> int:
         """
         Return the physics steps to integrate ``behind_ns`` of simulated time.
 
-        At most MAX_CHUNK, or one publish period if longer (between two samples that much is
-        normally pending: publish_rate goes down to 0.1 Hz). Further behind (a starved process,
-        or a control_rate this machine cannot integrate in real time), the rest of the time is
-        dropped (``start_ns`` moves on): lateness and the time a caller's lock is held stay
-        bounded.
+        At most :attr:`max_chunk_s`: one publish period (between two samples that much is
+        normally pending: publish_rate goes down to 0.1 Hz) plus MAX_CHUNK of lateness (a
+        sample timer late by a few ms at 1 Hz dropped simulated time). Further behind (a
+        starved process, or a control_rate this machine cannot integrate in real time), the
+        rest of the time is dropped (``start_ns`` moves on): lateness and the time a caller's
+        lock is held stay bounded.
         """
         steps = behind_ns // self.dt_ns
-        limit_s = max(MAX_CHUNK, 1.0 / self.publish_rate)
-        max_steps = int(limit_s * 1e9 // self.dt_ns)
+        max_steps = int(self.max_chunk_s * 1e9 // self.dt_ns)
         if steps > max_steps:
             self._warn(f'simulation fell {behind_ns * 1e-9:.3f} s behind the clock; '
                        'skipping ahead')
