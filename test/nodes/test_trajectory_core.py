@@ -348,3 +348,13 @@ def test_shortest_move_time_names_a_move_no_duration_makes_feasible():
     """accel_time 0 at the velocity limit: a velocity step on top of it, never feasible."""
     with pytest.raises(InvalidInputError, match='velocity limits'):
         tj.shortest_move_time([0.0], [0.45], [np.pi], 0.0, v_start=[np.pi], at_least=0.2)
+
+
+@pytest.mark.parametrize('field', ['q_goal', 'v_start'])
+def test_shortest_move_time_names_nan_input(field):
+    """A NaN goal or start velocity is refused with the field named, not searched."""
+    args = {'q_goal': [0.45], 'v_start': [0.5]}
+    args[field] = [float('nan')]
+    with pytest.raises(InvalidInputError, match=field):
+        tj.shortest_move_time([0.0], args['q_goal'], [np.pi], 0.05, v_start=args['v_start'],
+                              at_least=0.2)
